@@ -1,0 +1,88 @@
+#include "table/shared_table.hpp"
+
+#include <ctime>
+
+namespace rsd {
+
+std::optional<DeviceEvent> SharedTable::upsert(const std::string& id, nlohmann::json doc) {
+  std::optional<DeviceEvent> event;
+  {
+    std::lock_guard lock(mutex_);
+    event = table_.upsert(id, std::move(doc), now_iso8601());
+  }
+  if (event) changed_.notify_all();
+  return event;
+}
+
+std::optional<DeviceEvent> SharedTable::remove(const std::string& id) {
+  std::optional<DeviceEvent> event;
+  {
+    std::lock_guard lock(mutex_);
+    event = table_.remove(id);
+  }
+  if (event) changed_.notify_all();
+  return event;
+}
+
+std::vector<DeviceEvent> SharedTable::remove_if(
+    const std::function<bool(const nlohmann::json&)>& pred) {
+  std::vector<DeviceEvent> events;
+  {
+    std::lock_guard lock(mutex_);
+    events = table_.remove_if(pred);
+  }
+  if (!events.empty()) changed_.notify_all();
+  return events;
+}
+
+TableSnapshot SharedTable::snapshot() const {
+  std::lock_guard lock(mutex_);
+  return {table_.generation(), table_.devices()};
+}
+
+std::optional<nlohmann::json> SharedTable::find(const std::string& id) const {
+  std::lock_guard lock(mutex_);
+  if (const auto* doc = table_.find(id)) return *doc;
+  return std::nullopt;
+}
+
+std::uint64_t SharedTable::generation() const {
+  std::lock_guard lock(mutex_);
+  return table_.generation();
+}
+
+EventsSince SharedTable::wait_events(std::uint64_t generation,
+                                     std::chrono::milliseconds timeout) const {
+  std::unique_lock lock(mutex_);
+  changed_.wait_for(lock, timeout, [&] { return closed_ || table_.generation() != generation; });
+  return table_.events_since(generation);
+}
+
+void SharedTable::close() {
+  {
+    std::lock_guard lock(mutex_);
+    closed_ = true;
+  }
+  changed_.notify_all();
+}
+
+bool SharedTable::closed() const {
+  std::lock_guard lock(mutex_);
+  return closed_;
+}
+
+std::string SharedTable::now_iso8601() {
+  using namespace std::chrono;
+  const auto now = system_clock::now();
+  const auto ms = duration_cast<milliseconds>(now.time_since_epoch()).count() % 1000;
+  const std::time_t t = system_clock::to_time_t(now);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[40];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &tm);
+  char out[48];
+  std::snprintf(out, sizeof out, "%s.%03dZ", buf, static_cast<int>(ms));
+  return out;
+}
+
+}  // namespace rsd

@@ -1,0 +1,50 @@
+// The one locked door to the device table. Sources (DDS listener threads, the
+// libusb event thread) write through it; frontends read snapshots and wait for
+// events through it. Nothing else holds the table.
+#pragma once
+
+#include "table/device_table.hpp"
+
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+
+namespace rsd {
+
+struct TableSnapshot {
+  std::uint64_t generation = 0;
+  std::vector<nlohmann::json> devices;
+};
+
+class SharedTable {
+ public:
+  explicit SharedTable(std::size_t log_capacity = 4096, std::uint64_t first_generation = 0)
+      : table_(log_capacity, first_generation) {}
+
+  std::optional<DeviceEvent> upsert(const std::string& id, nlohmann::json doc);
+  std::optional<DeviceEvent> remove(const std::string& id);
+  std::vector<DeviceEvent> remove_if(const std::function<bool(const nlohmann::json&)>& pred);
+
+  TableSnapshot snapshot() const;
+  std::optional<nlohmann::json> find(const std::string& id) const;
+  std::uint64_t generation() const;
+
+  // Events after `generation`, waiting up to `timeout` for the first one. Returns
+  // at once when there are some, when there is a gap, or after close().
+  EventsSince wait_events(std::uint64_t generation, std::chrono::milliseconds timeout) const;
+
+  // Wakes every waiter for good: the daemon is stopping.
+  void close();
+  bool closed() const;
+
+  // Current UTC time as RFC 3339 with milliseconds, the form of first-seen/last-seen.
+  static std::string now_iso8601();
+
+ private:
+  mutable std::mutex mutex_;
+  mutable std::condition_variable changed_;
+  DeviceTable table_;
+  bool closed_ = false;
+};
+
+}  // namespace rsd

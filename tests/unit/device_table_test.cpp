@@ -1,0 +1,120 @@
+#include "table/device_table.hpp"
+
+#include <gtest/gtest.h>
+
+using nlohmann::json;
+using rsd::DeviceTable;
+using rsd::EventType;
+
+namespace {
+json d455(const std::string& fw = "5.16.0.1") {
+  return {{"name", "Intel RealSense D455"}, {"topic-root", "realsense/D455_1"}, {"fw-version", fw}};
+}
+}  // namespace
+
+TEST(DeviceTable, AddThenFind) {
+  DeviceTable t;
+  auto ev = t.upsert("a", d455(), "T1");
+  ASSERT_TRUE(ev);
+  EXPECT_EQ(ev->type, EventType::added);
+  EXPECT_EQ(ev->generation, 1u);
+  const json* doc = t.find("a");
+  ASSERT_NE(doc, nullptr);
+  EXPECT_EQ((*doc)["id"], "a");
+  EXPECT_EQ((*doc)["first-seen"], "T1");
+  EXPECT_EQ((*doc)["last-seen"], "T1");
+  EXPECT_EQ((*doc)["fw-version"], "5.16.0.1");
+}
+
+TEST(DeviceTable, ReannouncementOnlyMovesLastSeen) {
+  DeviceTable t;
+  t.upsert("a", d455(), "T1");
+  EXPECT_FALSE(t.upsert("a", d455(), "T2"));
+  EXPECT_EQ(t.generation(), 1u);
+  EXPECT_EQ((*t.find("a"))["first-seen"], "T1");
+  EXPECT_EQ((*t.find("a"))["last-seen"], "T2");
+}
+
+TEST(DeviceTable, ChangedFieldEmitsChangedAndKeepsFirstSeen) {
+  DeviceTable t;
+  t.upsert("a", d455(), "T1");
+  json recovering = d455();
+  recovering["recovery"] = true;
+  auto ev = t.upsert("a", recovering, "T2");
+  ASSERT_TRUE(ev);
+  EXPECT_EQ(ev->type, EventType::changed);
+  EXPECT_EQ(ev->device["recovery"], true);
+  EXPECT_EQ(ev->device["first-seen"], "T1");
+  EXPECT_EQ(t.size(), 1u);
+}
+
+TEST(DeviceTable, RemoveKnownAndUnknown) {
+  DeviceTable t;
+  t.upsert("a", d455(), "T1");
+  EXPECT_FALSE(t.remove("nope"));
+  auto ev = t.remove("a");
+  ASSERT_TRUE(ev);
+  EXPECT_EQ(ev->type, EventType::removed);
+  EXPECT_EQ(ev->device["id"], "a");
+  EXPECT_EQ(t.find("a"), nullptr);
+  EXPECT_EQ(t.generation(), 2u);
+}
+
+TEST(DeviceTable, RemoveIfRemovesOnlyMatches) {
+  DeviceTable t;
+  t.upsert("a", {{"domain", 1}}, "T");
+  t.upsert("b", {{"domain", 2}}, "T");
+  t.upsert("c", {{"domain", 1}}, "T");
+  auto events = t.remove_if([](const json& d) { return d["domain"] == 1; });
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(t.size(), 1u);
+  EXPECT_NE(t.find("b"), nullptr);
+}
+
+TEST(DeviceTable, DevicesAreOrderedById) {
+  DeviceTable t;
+  t.upsert("b", json::object(), "T");
+  t.upsert("a", json::object(), "T");
+  auto all = t.devices();
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_EQ(all[0]["id"], "a");
+  EXPECT_EQ(all[1]["id"], "b");
+}
+
+TEST(DeviceTable, ResumeReturnsEveryMissedEventInOrder) {
+  DeviceTable t;
+  t.upsert("a", json::object(), "T");  // 1
+  t.upsert("b", json::object(), "T");  // 2
+  t.remove("a");                         // 3
+  auto since = t.events_since(1);
+  EXPECT_FALSE(since.gap);
+  ASSERT_EQ(since.events.size(), 2u);
+  EXPECT_EQ(since.events[0].generation, 2u);
+  EXPECT_EQ(since.events[0].type, EventType::added);
+  EXPECT_EQ(since.events[1].generation, 3u);
+  EXPECT_EQ(since.events[1].type, EventType::removed);
+  EXPECT_TRUE(t.events_since(3).events.empty());
+  EXPECT_FALSE(t.events_since(3).gap);
+  EXPECT_EQ(t.events_since(0).events.size(), 3u);
+}
+
+TEST(DeviceTable, ResumeTooFarBehindIsAGap) {
+  DeviceTable t(2);
+  for (int i = 0; i < 5; ++i) t.upsert("d" + std::to_string(i), json::object(), "T");
+  EXPECT_TRUE(t.events_since(1).gap);   // generations 2 and 3 fell out of the log
+  EXPECT_FALSE(t.events_since(3).gap);  // 4 and 5 are still there
+  EXPECT_EQ(t.events_since(3).events.size(), 2u);
+}
+
+TEST(DeviceTable, GenerationFromTheFutureIsAGap) {
+  DeviceTable t;
+  t.upsert("a", json::object(), "T");
+  EXPECT_TRUE(t.events_since(99).gap);
+}
+
+TEST(DeviceTable, FirstGenerationSeedsIds) {
+  DeviceTable t(16, 1000);
+  EXPECT_EQ(t.upsert("a", json::object(), "T")->generation, 1001u);
+  EXPECT_TRUE(t.events_since(10).gap);  // an id from before this table existed
+  EXPECT_EQ(t.events_since(1000).events.size(), 1u);
+}
