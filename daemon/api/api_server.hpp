@@ -1,0 +1,52 @@
+// The read-only JSON API, served the same over a Unix socket and over HTTP.
+#pragma once
+
+#include "dds/domain_status.hpp"
+#include "table/shared_table.hpp"
+
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace rsd::api {
+
+struct ApiOptions {
+  std::string unix_socket;  // path; empty: no Unix socket
+  std::string http_host;    // empty: no HTTP
+  int http_port = 0;
+  // Already-bound listening sockets handed over by systemd (-1: none): when set,
+  // the server listens on them instead of binding the path/port itself.
+  int inherited_unix_fd = -1;
+  int inherited_http_fd = -1;
+};
+
+// Everything the API shows that is not the device table itself.
+struct StatusSources {
+  std::function<std::vector<DomainStatus>()> domains;
+  std::string version;
+};
+
+class ApiServer {
+ public:
+  ApiServer(SharedTable& table, StatusSources status);
+  ~ApiServer();
+  ApiServer(const ApiServer&) = delete;
+  ApiServer& operator=(const ApiServer&) = delete;
+
+  // Binds and starts serving on background threads; returns once both listeners
+  // accept connections. Throws std::runtime_error with a message fit for the user
+  // (address in use; another daemon alive on the socket; permission denied ...).
+  void start(const ApiOptions& options);
+
+  // Ends event streams, stops listening, removes the socket file it created.
+  // Idempotent; returns promptly (well under a second).
+  void stop();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rsd::api

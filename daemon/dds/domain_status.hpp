@@ -1,0 +1,23 @@
+// What a domain's DDS side reports about itself, for /v1/domains and /metrics.
+// A plain value: DomainSession fills it, the API serialises it.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+
+namespace rsd {
+
+struct DomainStatus {
+  int domain = 0;
+  std::string state;             // "settling", "running", "rebuilding", "failed"
+  std::string participant_guid;  // ours, "" until the participant exists
+  std::string error;             // why the domain is "failed", else ""
+  std::size_t devices = 0;       // devices of this domain now in the table
+  std::uint64_t accepted = 0;    // device-info messages taken into the table
+  std::uint64_t stopping = 0;    // 'stopping' messages honoured
+  std::map<std::string, std::uint64_t> rejected;  // reason -> count
+  std::uint64_t rebuilds = 0;    // times the participant was torn down and made anew
+};
+
+}  // namespace rsd
