@@ -1,0 +1,51 @@
+// Logging to stderr with syslog priority prefixes ("<6>..."), which journald
+// turns into real priorities when the daemon runs as a service. Thread-safe: DDS
+// listener threads, the libusb thread and API workers all log.
+#pragma once
+
+#include <chrono>
+#include <cstdio>
+#include <mutex>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+
+namespace rsd::log {
+
+enum class Level { error = 3, warning = 4, notice = 5, info = 6, debug = 7 };
+
+// "error", "warning", "notice", "info", "debug"; false when the name is unknown.
+bool parse_level(std::string_view name, Level& out);
+void set_level(Level level);
+bool enabled(Level level);
+void write(Level level, std::string_view message);
+
+inline void error(std::string_view m) { write(Level::error, m); }
+inline void warning(std::string_view m) { write(Level::warning, m); }
+inline void notice(std::string_view m) { write(Level::notice, m); }
+inline void info(std::string_view m) { write(Level::info, m); }
+inline void debug(std::string_view m) { write(Level::debug, m); }
+
+// Lets one line per key through per interval and counts what it held back, so a
+// peer flooding bad messages cannot flood the journal; the next line that gets
+// through says how many were suppressed.
+class RateLimiter {
+ public:
+  explicit RateLimiter(std::chrono::milliseconds interval = std::chrono::seconds(10))
+      : interval_(interval) {}
+  // Returns true when a line for `key` may be written now; `suppressed` is set to
+  // the number of lines held back for that key since the last one written.
+  bool allow(const std::string& key, std::uint64_t& suppressed);
+
+ private:
+  struct Slot {
+    std::chrono::steady_clock::time_point last{};
+    std::uint64_t suppressed = 0;
+    bool used = false;
+  };
+  std::chrono::milliseconds interval_;
+  std::mutex mutex_;
+  std::unordered_map<std::string, Slot> slots_;
+};
+
+}  // namespace rsd::log
