@@ -1,6 +1,7 @@
 #include "table/device_table.hpp"
 
 #include <algorithm>
+#include <iterator>
 
 namespace rsd {
 
@@ -26,46 +27,213 @@ bool same_but_timestamps(const nlohmann::json& a, const nlohmann::json& b) {
   }
   return x == y;
 }
+
+// Sources in the order in which they name a merged entry; unknown ones come after,
+// by name.
+constexpr const char* kSourceOrder[] = {"dds", "usb"};
+
+std::pair<std::size_t, std::string> source_rank(const std::string& source) {
+  for (std::size_t i = 0; i < std::size(kSourceOrder); ++i)
+    if (source == kSourceOrder[i]) return {i, source};
+  return {std::size(kSourceOrder), source};
+}
+
+const std::string* string_field(const nlohmann::json& doc, const char* key) {
+  auto it = doc.find(key);
+  if (it == doc.end() || !it->is_string()) return nullptr;
+  return it->get_ptr<const std::string*>();
+}
+
+// The key on which sightings may merge: the exact serial of a sighting that says
+// which source it comes from. Nothing else (no prefixes, no case folding).
+std::optional<std::string> merge_key(const nlohmann::json& doc) {
+  const auto* source = string_field(doc, "source");
+  const auto* serial = string_field(doc, "serial");
+  if (!source || source->empty() || !serial || serial->empty()) return std::nullopt;
+  return *serial;
+}
 }  // namespace
+
+void DeviceTable::index(const std::string& id, const nlohmann::json& sighting, bool add) {
+  auto key = merge_key(sighting);
+  if (!key) return;
+  if (add) {
+    by_serial_[*key].insert(id);
+    return;
+  }
+  auto it = by_serial_.find(*key);
+  if (it == by_serial_.end()) return;
+  it->second.erase(id);
+  if (it->second.empty()) by_serial_.erase(it);
+}
+
+std::set<std::string> DeviceTable::group_of(const std::string& sighting_id) const {
+  std::set<std::string> out{sighting_id};
+  auto s = sightings_.find(sighting_id);
+  if (s == sightings_.end()) return out;
+  if (auto key = merge_key(s->second)) {
+    auto it = by_serial_.find(*key);
+    if (it != by_serial_.end()) out.insert(it->second.begin(), it->second.end());
+  }
+  return out;
+}
+
+DeviceTable::Layout DeviceTable::layout(const std::set<std::string>& sightings) const {
+  Layout out;
+  std::map<std::string, std::vector<std::string>> groups;  // serial -> ids (sorted)
+  for (const auto& id : sightings) {
+    auto s = sightings_.find(id);
+    if (s == sightings_.end()) continue;
+    if (auto key = merge_key(s->second))
+      groups[*key].push_back(id);
+    else
+      out[id] = {id};
+  }
+  for (const auto& [serial, ids] : groups) {
+    // The lowest id of each source takes part; the first source names the entry.
+    std::map<std::pair<std::size_t, std::string>, std::string> first_of_source;
+    for (const auto& id : ids) {
+      const auto rank = source_rank(*string_field(sightings_.at(id), "source"));
+      first_of_source.emplace(rank, id);  // ids are sorted: the first one stays
+    }
+    std::vector<std::string> members;
+    for (const auto& [rank, id] : first_of_source) members.push_back(id);
+    for (const auto& id : ids)
+      if (std::find(members.begin(), members.end(), id) == members.end()) out[id] = {id};
+    out[members.front()] = members;
+  }
+  return out;
+}
+
+nlohmann::json DeviceTable::build_entry(const std::vector<std::string>& members) const {
+  nlohmann::json entry = sightings_.at(members.front());
+  const bool sourced = string_field(entry, "source") != nullptr;
+  std::set<std::string> sources;
+  if (sourced) sources.insert(*string_field(entry, "source"));
+  for (std::size_t i = 1; i < members.size(); ++i) {
+    const auto& other = sightings_.at(members[i]);
+    if (const auto* src = string_field(other, "source")) sources.insert(*src);
+    for (const auto& [key, value] : other.items()) {
+      if (key == "id" || key == "source" || key == kSources || key == kFirstSeen ||
+          key == kLastSeen || entry.contains(key))
+        continue;
+      entry[key] = value;
+    }
+    const auto first = other.value(kFirstSeen, std::string());
+    const auto last = other.value(kLastSeen, std::string());
+    if (first < entry.value(kFirstSeen, first)) entry[kFirstSeen] = first;
+    if (last > entry.value(kLastSeen, last)) entry[kLastSeen] = last;
+  }
+  if (sourced) entry[kSources] = sources;
+  return entry;
+}
+
+std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& affected,
+                                                const std::set<std::string>& old_entries) {
+  const Layout next = layout(affected);
+  std::vector<DeviceEvent> events;
+  // Removals first, so an event stream never shows one camera twice.
+  for (const auto& entry_id : old_entries) {
+    if (next.count(entry_id)) continue;
+    auto it = devices_.find(entry_id);
+    if (it == devices_.end()) continue;
+    nlohmann::json last = std::move(it->second);
+    devices_.erase(it);
+    for (const auto& [id, members] : next)
+      if (std::find(members.begin(), members.end(), entry_id) != members.end())
+        last[kMergedInto] = id;
+    events.push_back(record(EventType::removed, last));
+  }
+  for (const auto& [entry_id, members] : next) {
+    for (const auto& m : members) owner_[m] = entry_id;
+    nlohmann::json doc = build_entry(members);
+    auto it = devices_.find(entry_id);
+    if (it == devices_.end()) {
+      auto& stored = devices_.emplace(entry_id, std::move(doc)).first->second;
+      events.push_back(record(EventType::added, stored));
+      continue;
+    }
+    const bool changed = !same_but_timestamps(it->second, doc);
+    it->second = std::move(doc);
+    if (changed) events.push_back(record(EventType::changed, it->second));
+  }
+  return events;
+}
+
+std::optional<DeviceEvent> DeviceTable::event_for(const std::vector<DeviceEvent>& events,
+                                                  const std::string& entry_id) const {
+  for (const auto& e : events)
+    if (e.device.value("id", std::string()) == entry_id) return e;
+  return std::nullopt;
+}
 
 std::optional<DeviceEvent> DeviceTable::upsert(const std::string& id, nlohmann::json doc,
                                                const std::string& now) {
   if (!doc.is_object()) doc = nlohmann::json::object();
+  doc.erase(kSources);
+  doc.erase(kMergedInto);
   doc["id"] = id;
   doc[kLastSeen] = now;
-  auto it = devices_.find(id);
-  if (it == devices_.end()) {
+  std::set<std::string> affected = group_of(id);
+  auto old = sightings_.find(id);
+  if (old == sightings_.end()) {
     doc[kFirstSeen] = now;
-    auto& stored = devices_.emplace(id, std::move(doc)).first->second;
-    return record(EventType::added, stored);
+  } else {
+    doc[kFirstSeen] = old->second.value(kFirstSeen, now);
+    index(id, old->second, false);
   }
-  doc[kFirstSeen] = it->second.value(kFirstSeen, now);
-  const bool changed = !same_but_timestamps(it->second, doc);
-  it->second = std::move(doc);
-  if (!changed) return std::nullopt;
-  return record(EventType::changed, it->second);
+  index(id, doc, true);
+  sightings_[id] = std::move(doc);
+  for (const auto& other : group_of(id)) affected.insert(other);
+  std::set<std::string> old_entries;
+  for (const auto& s : affected)
+    if (auto o = owner_.find(s); o != owner_.end()) old_entries.insert(o->second);
+  auto events = reconcile(affected, old_entries);
+  return event_for(events, owner_.at(id));
+}
+
+std::vector<DeviceEvent> DeviceTable::remove_sighting(const std::string& id,
+                                                      std::string& old_entry) {
+  std::set<std::string> affected = group_of(id);
+  std::set<std::string> old_entries;
+  for (const auto& s : affected)
+    if (auto o = owner_.find(s); o != owner_.end()) old_entries.insert(o->second);
+  old_entry = owner_.at(id);
+  auto it = sightings_.find(id);
+  index(id, it->second, false);
+  sightings_.erase(it);
+  owner_.erase(id);
+  affected.erase(id);
+  return reconcile(affected, old_entries);
 }
 
 std::optional<DeviceEvent> DeviceTable::remove(const std::string& id) {
-  auto it = devices_.find(id);
-  if (it == devices_.end()) return std::nullopt;
-  nlohmann::json last = std::move(it->second);
-  devices_.erase(it);
-  return record(EventType::removed, last);
+  if (!sightings_.count(id)) return std::nullopt;
+  std::string old_entry;
+  auto events = remove_sighting(id, old_entry);
+  return event_for(events, old_entry);
 }
 
 std::vector<DeviceEvent> DeviceTable::remove_if(
     const std::function<bool(const nlohmann::json&)>& pred) {
   std::vector<std::string> doomed;
-  for (const auto& [id, doc] : devices_)
+  for (const auto& [id, doc] : sightings_)
     if (pred(doc)) doomed.push_back(id);
   std::vector<DeviceEvent> events;
-  for (const auto& id : doomed) events.push_back(*remove(id));
+  for (const auto& id : doomed) {
+    std::string old_entry;
+    auto more = remove_sighting(id, old_entry);
+    events.insert(events.end(), more.begin(), more.end());
+  }
   return events;
 }
 
 const nlohmann::json* DeviceTable::find(const std::string& id) const {
   auto it = devices_.find(id);
+  if (it != devices_.end()) return &it->second;
+  auto o = owner_.find(id);
+  if (o == owner_.end()) return nullptr;
+  it = devices_.find(o->second);
   return it == devices_.end() ? nullptr : &it->second;
 }
 

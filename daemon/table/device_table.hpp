@@ -10,6 +10,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -32,29 +33,56 @@ struct EventsSince {
   bool gap = false;
 };
 
+// One camera can be seen by two sources (announced on DDS and plugged in on USB).
+// Each source upserts its own *sighting* under its own id; the table shows one
+// *entry* per camera. Sightings from different sources merge into one entry only
+// when both carry a "source" string and the very same non-empty "serial" string
+// (never on a guess). The entry then:
+//   - takes the id and every field of its primary sighting: the source that comes
+//     first in kSourceOrder ("dds" before "usb"), lowest id among equals, so the id
+//     only depends on what is seen now, not on the order it was seen in;
+//   - keeps "source" = the primary's source (the sighting that names the entry) and
+//     lists every source in "sources" (sorted; also set, one long, on unmerged
+//     entries whose sighting has a "source");
+//   - fills fields the primary lacks from the other sightings ("usb", "warnings"...);
+//   - first-seen/last-seen: earliest/latest of its sightings.
+// At most one sighting per source joins an entry; others stay entries of their own.
+// A merge or split is told with the ordinary events: a USB-only entry that joins a
+// DDS one is `removed` (its document then carries "merged-into": <entry id>) and the
+// DDS entry `changed`; unplugging leaves a `changed` entry; the DDS side leaving
+// `removes` the merged entry and `adds` the USB one again. find() also answers for
+// the id of a sighting that is merged into another entry.
 class DeviceTable {
  public:
   // Fields the table owns itself; a source's document never sets them.
   static constexpr const char* kFirstSeen = "first-seen";
   static constexpr const char* kLastSeen = "last-seen";
+  static constexpr const char* kSources = "sources";
+  static constexpr const char* kMergedInto = "merged-into";
 
   // `first_generation` lets a restarted daemon continue above its predecessor's ids
   // (main seeds it from the clock), so a client resuming with an old id is told to
   // re-list instead of being handed unrelated events.
   explicit DeviceTable(std::size_t log_capacity = 4096, std::uint64_t first_generation = 0);
 
-  // Adds the device `id` or updates it. `doc` is the whole device as its source
-  // sees it now (an object; "id" is set here). Returns the event it caused, or
-  // nothing when only last-seen moved: a periodic re-announcement is not news.
+  // Adds the device (sighting) `id` or updates it. `doc` is the whole device as its
+  // source sees it now (an object; "id" is set here). Returns the event it caused
+  // on the entry that now shows this sighting, or nothing when only last-seen moved:
+  // a periodic re-announcement is not news. A merge can cause more than one event
+  // (see above): all go to the change log; the others are not returned.
   std::optional<DeviceEvent> upsert(const std::string& id, nlohmann::json doc,
                                     const std::string& now_iso8601);
 
-  // Removes the device; nothing happens (and no event) when it is not there.
+  // Removes the device (sighting); nothing happens (and no event) when it is not
+  // there. Returns the event of the entry that showed it: `removed`, or `changed`
+  // when the entry lives on through another source's sighting.
   std::optional<DeviceEvent> remove(const std::string& id);
 
-  // Removes every device whose document satisfies `pred`, one event each.
+  // Removes every sighting whose document (as its source gave it, with "id" and
+  // the timestamps) satisfies `pred`; returns every event that caused.
   std::vector<DeviceEvent> remove_if(const std::function<bool(const nlohmann::json&)>& pred);
 
+  // The entry with this id, or the entry a sighting with this id is merged into.
   const nlohmann::json* find(const std::string& id) const;
   std::vector<nlohmann::json> devices() const;  // ordered by id
   std::size_t size() const { return devices_.size(); }
@@ -65,7 +93,23 @@ class DeviceTable {
  private:
   DeviceEvent record(EventType type, const nlohmann::json& device);
 
-  std::map<std::string, nlohmann::json> devices_;
+  using Layout = std::map<std::string, std::vector<std::string>>;  // entry id -> sightings, primary first
+  void index(const std::string& id, const nlohmann::json& sighting, bool add);
+  std::set<std::string> group_of(const std::string& sighting_id) const;
+  Layout layout(const std::set<std::string>& sightings) const;
+  nlohmann::json build_entry(const std::vector<std::string>& members) const;
+  // Re-derives the entries of `affected` sightings; `old_entries` are the entry ids
+  // they had before the change. Emits events; returns them in log order.
+  std::vector<DeviceEvent> reconcile(const std::set<std::string>& affected,
+                                     const std::set<std::string>& old_entries);
+  std::optional<DeviceEvent> event_for(const std::vector<DeviceEvent>& events,
+                                       const std::string& entry_id) const;
+  std::vector<DeviceEvent> remove_sighting(const std::string& id, std::string& old_entry);
+
+  std::map<std::string, nlohmann::json> sightings_;  // as the sources gave them
+  std::map<std::string, std::set<std::string>> by_serial_;  // merge key -> sighting ids
+  std::map<std::string, std::string> owner_;        // sighting id -> entry id
+  std::map<std::string, nlohmann::json> devices_;   // the entries, what everyone sees
   std::deque<DeviceEvent> log_;
   std::size_t log_capacity_;
   std::uint64_t generation_ = 0;
