@@ -1,0 +1,251 @@
+#include "config/config.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <charconv>
+#include <cstring>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <unistd.h>
+
+namespace rsd {
+namespace {
+
+int parse_domain(const std::string& text, const std::string& where) {
+  int value = -1;
+  const auto* end = text.data() + text.size();
+  auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (text.empty() || ec != std::errc() || ptr != end || value < 0 || value > kMaxDomain)
+    throw ConfigError(where + ": DDS domain must be a whole number from 0 to " +
+                      std::to_string(kMaxDomain) + ", not '" + text + "'");
+  return value;
+}
+
+// "HOST:PORT", "[v6]:PORT" or "off".
+void parse_http(const std::string& text, Config& config, const std::string& where) {
+  if (text == "off") {
+    config.http_host.clear();
+    return;
+  }
+  const auto colon = text.rfind(':');
+  std::string host = colon == std::string::npos ? "" : text.substr(0, colon);
+  const std::string port = colon == std::string::npos ? "" : text.substr(colon + 1);
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  int value = 0;
+  auto [ptr, ec] = std::from_chars(port.data(), port.data() + port.size(), value);
+  if (host.empty() || port.empty() || ec != std::errc() || ptr != port.data() + port.size() ||
+      value < 1 || value > 65535)
+    throw ConfigError(where + ": expected HOST:PORT (for example 127.0.0.1:" +
+                      std::to_string(kDefaultHttpPort) + ") or 'off', not '" + text + "'");
+  config.http_host = host;
+  config.http_port = value;
+}
+
+void parse_socket(const std::string& text, Config& config, const std::string& where) {
+  if (text.empty()) throw ConfigError(where + ": socket path is empty (use 'off' to disable)");
+  config.socket_path = text == "off" ? "" : text;
+}
+
+void check_log_level(const std::string& level, const std::string& where) {
+  static const std::set<std::string> kLevels{"error", "warning", "notice", "info", "debug"};
+  if (!kLevels.count(level))
+    throw ConfigError(where + ": log level must be one of error, warning, notice, info, debug; not '" +
+                      level + "'");
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ConfigError("cannot read config file " + path + ": " + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+}  // namespace
+
+std::string default_socket_path() {
+  if (const char* rd = std::getenv("RUNTIME_DIRECTORY"); rd && *rd) {
+    std::string dir = rd;
+    // systemd may list several directories separated by ':'; the first is ours.
+    dir = dir.substr(0, dir.find(':'));
+    return dir + "/api.sock";
+  }
+  if (geteuid() == 0) return "/run/rs-discoveryd/api.sock";
+  if (const char* xdg = std::getenv("XDG_RUNTIME_DIR"); xdg && *xdg)
+    return std::string(xdg) + "/rs-discoveryd.sock";
+  return "/tmp/rs-discoveryd-" + std::to_string(geteuid()) + ".sock";
+}
+
+void apply_config_json(const std::string& text, Config& config) {
+  const std::string where = config.config_file.empty() ? "config" : config.config_file;
+  nlohmann::json doc;
+  try {
+    doc = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw ConfigError(where + ": not valid JSON: " + e.what());
+  }
+  if (!doc.is_object()) throw ConfigError(where + ": must be a JSON object");
+  auto want_string = [&](const std::string& key, const nlohmann::json& v) -> std::string {
+    if (!v.is_string()) throw ConfigError(where + ": \"" + key + "\" must be a string");
+    return v.get<std::string>();
+  };
+  for (const auto& [key, value] : doc.items()) {
+    const std::string at = where + ": \"" + key + "\"";
+    if (key == "domains") {
+      if (!value.is_array() || value.empty())
+        throw ConfigError(at + " must be a non-empty array of domain ids");
+      std::vector<int> domains;
+      for (const auto& d : value) {
+        if (!d.is_number_integer()) throw ConfigError(at + " must hold whole numbers, not " + d.dump());
+        domains.push_back(parse_domain(std::to_string(d.get<long long>()), at));
+      }
+      config.domains = domains;
+    } else if (key == "socket") {
+      parse_socket(want_string(key, value), config, at);
+    } else if (key == "http") {
+      parse_http(want_string(key, value), config, at);
+    } else if (key == "usb") {
+      if (!value.is_boolean()) throw ConfigError(at + " must be true or false");
+      config.usb = value.get<bool>();
+    } else if (key == "participant-name") {
+      config.participant_name = want_string(key, value);
+    } else if (key == "log-level") {
+      config.log_level = want_string(key, value);
+      check_log_level(config.log_level, at);
+    } else if (key == "cyclonedds-config") {
+      config.cyclonedds_config = want_string(key, value);
+    } else {
+      throw ConfigError(where + ": unknown key \"" + key +
+                        "\" (known: domains, socket, http, usb, participant-name, log-level, "
+                        "cyclonedds-config)");
+    }
+  }
+}
+
+CommandLine parse_command_line(int argc, const char* const* argv) {
+  CommandLine cl;
+  Config flags_only;  // collects what the flags set, to apply over the file
+  bool set_domains = false, set_socket = false, set_http = false, set_usb = false, set_name = false,
+       set_level = false, set_cyclone = false;
+  std::string config_file;
+  bool explicit_config = false;
+  std::vector<int> domains;
+
+  for (int i = 1; i < argc; ++i) {
+    std::string arg = argv[i];
+    std::string value;
+    bool has_inline = false;
+    if (arg.rfind("--", 0) == 0) {
+      if (auto eq = arg.find('='); eq != std::string::npos) {
+        value = arg.substr(eq + 1);
+        arg = arg.substr(0, eq);
+        has_inline = true;
+      }
+    }
+    auto next = [&]() -> std::string {
+      if (has_inline) return value;
+      if (i + 1 >= argc) throw ConfigError(arg + " needs a value (see --help)");
+      return argv[++i];
+    };
+    if (arg == "-h" || arg == "--help") {
+      cl.action = CommandAction::help;
+      return cl;
+    } else if (arg == "-V" || arg == "--version") {
+      cl.action = CommandAction::version;
+      return cl;
+    } else if (arg == "-c" || arg == "--config") {
+      config_file = next();
+      explicit_config = true;
+    } else if (arg == "-d" || arg == "--domain") {
+      domains.push_back(parse_domain(next(), "--domain"));
+      set_domains = true;
+    } else if (arg == "--socket") {
+      parse_socket(next(), flags_only, "--socket");
+      set_socket = true;
+    } else if (arg == "--http") {
+      parse_http(next(), flags_only, "--http");
+      set_http = true;
+    } else if (arg == "--no-usb") {
+      flags_only.usb = false;
+      set_usb = true;
+    } else if (arg == "--participant-name") {
+      flags_only.participant_name = next();
+      set_name = true;
+    } else if (arg == "--log-level") {
+      flags_only.log_level = next();
+      check_log_level(flags_only.log_level, "--log-level");
+      set_level = true;
+    } else if (arg == "--cyclonedds-config") {
+      flags_only.cyclonedds_config = next();
+      set_cyclone = true;
+    } else {
+      throw ConfigError("unknown argument '" + arg + "' (see --help)");
+    }
+  }
+
+  Config& config = cl.config;
+  config.socket_path = default_socket_path();
+  if (!explicit_config && access(kDefaultConfigFile, F_OK) == 0) config_file = kDefaultConfigFile;
+  if (!config_file.empty()) {
+    config.config_file = config_file;
+    apply_config_json(read_file(config_file), config);
+  }
+  if (set_domains) config.domains = domains;
+  if (set_socket) config.socket_path = flags_only.socket_path;
+  if (set_http) {
+    config.http_host = flags_only.http_host;
+    config.http_port = flags_only.http_port;
+  }
+  if (set_usb) config.usb = flags_only.usb;
+  if (set_name) config.participant_name = flags_only.participant_name;
+  if (set_level) config.log_level = flags_only.log_level;
+  if (set_cyclone) config.cyclonedds_config = flags_only.cyclonedds_config;
+
+  // The same domain twice would be two participants fighting over one table slot.
+  std::set<int> unique(config.domains.begin(), config.domains.end());
+  config.domains.assign(unique.begin(), unique.end());
+  if (config.socket_path.empty() && config.http_host.empty())
+    throw ConfigError("both the Unix socket and HTTP are off: nobody could ask the daemon anything");
+  return cl;
+}
+
+const char* usage_text() {
+  return R"(Usage: rs-discoveryd [OPTIONS]
+
+Keeps a live table of Intel RealSense cameras announced over DDS (realdds) and
+plugged in over USB, and serves it as JSON on a Unix socket and over HTTP.
+
+Options:
+  -c, --config FILE          JSON configuration file (default: /etc/rs-discoveryd/config.json
+                             when it exists). Flags override the file.
+  -d, --domain N             DDS domain to watch, 0-232; repeat for several (default: 0)
+      --socket PATH|off      Unix socket for the API (default: $RUNTIME_DIRECTORY/api.sock,
+                             else /run/rs-discoveryd/api.sock for root,
+                             else $XDG_RUNTIME_DIR/rs-discoveryd.sock)
+      --http HOST:PORT|off   HTTP listener for the API (default: 127.0.0.1:8035)
+      --no-usb               do not watch local USB cameras
+      --participant-name NAME
+                             DDS participant name others see (default: rs-discoveryd)
+      --cyclonedds-config XML|file://PATH
+                             Cyclone DDS configuration for every domain (network interface,
+                             multicast, unicast peers); default: CYCLONEDDS_URI or Cyclone's own
+      --log-level LEVEL      error, warning, notice, info (default) or debug
+  -V, --version              print the version and exit
+  -h, --help                 print this help and exit
+
+Config file keys: domains, socket, http, usb, participant-name, log-level,
+cyclonedds-config (same meanings as the flags).
+
+API: GET /v1/devices, /v1/devices/{id}, /v1/events (Server-Sent Events),
+/v1/domains, /healthz, /metrics. For example:
+  curl --unix-socket /run/rs-discoveryd/api.sock http://localhost/v1/devices
+  curl http://127.0.0.1:8035/v1/devices
+
+Signals: SIGTERM/SIGINT stop; SIGUSR1 rebuilds every domain's DDS participant.
+Exit status: 0 stopped cleanly, 1 runtime failure, 2 bad usage or configuration.
+)";
+}
+
+}  // namespace rsd

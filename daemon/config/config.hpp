@@ -1,0 +1,52 @@
+// The daemon's configuration: embedded defaults, then the JSON config file, then
+// command-line flags (flags win), validated into one plain struct.
+#pragma once
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace rsd {
+
+inline constexpr int kDefaultHttpPort = 8035;
+inline constexpr const char* kDefaultConfigFile = "/etc/rs-discoveryd/config.json";
+inline constexpr int kMaxDomain = 232;  // RTPS port mapping ends there
+
+struct Config {
+  std::vector<int> domains{0};
+  std::string socket_path;  // "" : no Unix socket
+  std::string http_host = "127.0.0.1";  // "" : no HTTP
+  int http_port = kDefaultHttpPort;
+  bool usb = true;
+  std::string participant_name = "rs-discoveryd";
+  std::string log_level = "info";
+  std::string cyclonedds_config;  // XML fragment or file URI, passed to every domain
+  std::string config_file;        // where the file part came from ("" : none)
+};
+
+enum class CommandAction { run, help, version };
+
+struct CommandLine {
+  CommandAction action = CommandAction::run;
+  Config config;
+};
+
+// $RUNTIME_DIRECTORY/api.sock (systemd), else /run/rs-discoveryd/api.sock for
+// root, else $XDG_RUNTIME_DIR/rs-discoveryd.sock (or /tmp/rs-discoveryd-UID.sock).
+std::string default_socket_path();
+
+// Reads flags, then the config file they name (or the default one, if it exists),
+// and merges them. Throws ConfigError with a message fit for the user.
+CommandLine parse_command_line(int argc, const char* const* argv);
+
+// Applies a config document (the file's text) onto `config`. Throws ConfigError.
+void apply_config_json(const std::string& text, Config& config);
+
+struct ConfigError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+const char* usage_text();
+
+}  // namespace rsd

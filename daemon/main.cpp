@@ -1,0 +1,149 @@
+// rs-discoveryd: flags and config -> wiring -> signal and timer loop. Nothing else.
+#include "api/api_server.hpp"
+#include "config/config.hpp"
+#include "dds/domain_session.hpp"
+#include "log/log.hpp"
+#include "table/shared_table.hpp"
+
+#include <poll.h>
+#include <signal.h>
+#include <sys/signalfd.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <vector>
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Signals are taken synchronously through a signalfd. They are blocked before
+// any thread exists, so DDS's and libusb's threads inherit the mask and never
+// run a handler.
+int block_signals() {
+  sigset_t set;
+  sigemptyset(&set);
+  for (int s : {SIGTERM, SIGINT, SIGHUP, SIGUSR1}) sigaddset(&set, s);
+  sigprocmask(SIG_BLOCK, &set, nullptr);
+  signal(SIGPIPE, SIG_IGN);  // a client hanging up mid-reply is not our death
+  return signalfd(-1, &set, SFD_CLOEXEC);
+}
+
+std::uint64_t first_generation() {
+  // Event ids continue above any earlier run's, so a client resuming with an
+  // id from before a restart is told to re-list rather than handed wrong events.
+  using namespace std::chrono;
+  return static_cast<std::uint64_t>(
+      duration_cast<microseconds>(system_clock::now().time_since_epoch()).count());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  rsd::CommandLine cl;
+  try {
+    cl = rsd::parse_command_line(argc, argv);
+  } catch (const rsd::ConfigError& e) {
+    std::fprintf(stderr, "rs-discoveryd: %s\n", e.what());
+    return 2;
+  }
+  if (cl.action == rsd::CommandAction::help) {
+    std::fputs(rsd::usage_text(), stdout);
+    return 0;
+  }
+  if (cl.action == rsd::CommandAction::version) {
+    std::printf("rs-discoveryd %s\n", RSD_VERSION);
+    return 0;
+  }
+  const rsd::Config& config = cl.config;
+  rsd::log::Level level{};
+  rsd::log::parse_level(config.log_level, level);
+  rsd::log::set_level(level);
+
+  const int signal_fd = block_signals();
+  if (signal_fd < 0) {
+    rsd::log::error("cannot create signalfd");
+    return 1;
+  }
+
+  rsd::SharedTable table(4096, first_generation());
+  std::vector<std::unique_ptr<rsd::dds::DomainSession>> sessions;
+  for (int domain : config.domains) {
+    rsd::dds::SessionOptions options;
+    options.domain = domain;
+    options.participant_name = config.participant_name;
+    options.cyclone_config = config.cyclonedds_config;
+    sessions.push_back(std::make_unique<rsd::dds::DomainSession>(table, options));
+    try {
+      sessions.back()->start();
+    } catch (const std::exception& e) {
+      rsd::log::error(e.what());
+      return 1;
+    }
+  }
+
+  rsd::api::StatusSources status;
+  status.version = RSD_VERSION;
+  status.domains = [&sessions] {
+    std::vector<rsd::DomainStatus> out;
+    for (const auto& s : sessions) out.push_back(s->status());
+    return out;
+  };
+  rsd::api::ApiServer api(table, status);
+  rsd::api::ApiOptions api_options;
+  api_options.unix_socket = config.socket_path;
+  api_options.http_host = config.http_host;
+  api_options.http_port = config.http_port;
+  try {
+    api.start(api_options);
+  } catch (const std::exception& e) {
+    rsd::log::error(e.what());
+    return 1;
+  }
+  rsd::log::notice(std::string("rs-discoveryd ") + RSD_VERSION + " serving" +
+                   (config.socket_path.empty() ? "" : " on unix:" + config.socket_path) +
+                   (config.http_host.empty() ? ""
+                                             : " on http://" + config.http_host + ":" +
+                                                   std::to_string(config.http_port)));
+
+  bool running = true;
+  while (running) {
+    auto wait = std::chrono::milliseconds(1000);
+    const auto now = Clock::now();
+    for (auto& s : sessions)
+      wait = std::min(wait, std::chrono::ceil<std::chrono::milliseconds>(s->tick(now)));
+    pollfd pfd{signal_fd, POLLIN, 0};
+    const int timeout = static_cast<int>(std::max<std::int64_t>(wait.count(), 1));
+    if (poll(&pfd, 1, timeout) <= 0) continue;
+    signalfd_siginfo si{};
+    if (read(signal_fd, &si, sizeof si) != static_cast<ssize_t>(sizeof si)) continue;
+    switch (si.ssi_signo) {
+      case SIGTERM:
+      case SIGINT:
+        rsd::log::notice("stopping on signal " + std::to_string(si.ssi_signo));
+        running = false;
+        break;
+      case SIGUSR1:
+        for (auto& s : sessions) {
+          try {
+            s->rebuild();
+          } catch (const std::exception& e) {
+            rsd::log::error(e.what());
+          }
+        }
+        break;
+      default:
+        break;
+    }
+  }
+
+  // Streams first (they wait on the table), then listeners, then DDS.
+  table.close();
+  api.stop();
+  for (auto& s : sessions) s->stop();
+  close(signal_fd);
+  return 0;
+}
