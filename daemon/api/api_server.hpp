@@ -20,6 +20,15 @@ struct ApiOptions {
   // the server listens on them instead of binding the path/port itself.
   int inherited_unix_fd = -1;
   int inherited_http_fd = -1;
+
+  // Every open SSE client holds one worker thread for as long as it listens, so
+  // each listener gets a pool well above the stream limit: plain requests keep
+  // being answered when all streams are taken.
+  int worker_threads = 64;  // per listener
+  int max_event_streams = 32;  // over both listeners; beyond it /v1/events is a 503
+  // Idle SSE streams get a comment line this often, so proxies and NAT boxes keep
+  // them open. Tests shorten it.
+  int keepalive_ms = 15000;
 };
 
 // Everything the API shows that is not the device table itself.
@@ -43,6 +52,9 @@ class ApiServer {
   // Ends event streams, stops listening, removes the socket file it created.
   // Idempotent; returns promptly (well under a second).
   void stop();
+
+  // The TCP port actually bound (useful with http_port 0), or 0 without HTTP.
+  int http_port() const;
 
  private:
   struct Impl;

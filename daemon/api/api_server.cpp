@@ -1,0 +1,497 @@
+#include "api/api_server.hpp"
+
+#include "api/format.hpp"
+#include "api/listener.hpp"
+#include "log/log.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <mutex>
+#include <regex>
+#include <thread>
+
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace rsd::api {
+
+namespace {
+
+constexpr const char* kJson = "application/json";
+constexpr const char* kAllow = "GET, HEAD";
+// How long an SSE worker waits on the table before it looks at the stop flag
+// again; bounds how long stop() waits for streams.
+constexpr std::chrono::milliseconds kStreamSlice{100};
+// The API takes no bodies; anything bigger than this is refused before it is read.
+constexpr std::size_t kMaxPayload = 64 * 1024;
+
+const std::regex kDeviceRoute(R"(/v1/devices/([^/]+))");
+
+bool known_path(const std::string& path) {
+  static const std::set<std::string> fixed = {"/v1/devices", "/v1/events", "/v1/domains", "/healthz",
+                                              "/metrics"};
+  return fixed.contains(path) || std::regex_match(path, kDeviceRoute);
+}
+
+void send_json(httplib::Response& res, int status, const nlohmann::json& body) {
+  res.status = status;
+  res.set_content(dump(body) + "\n", kJson);
+}
+
+void send_error(httplib::Response& res, int status, const std::string& message) {
+  res.status = status;
+  res.set_content(error_body(status, message), kJson);
+}
+
+}  // namespace
+
+struct ApiServer::Impl {
+  SharedTable& table;
+  StatusSources status;
+  ApiOptions options;
+
+  struct Slot {
+    std::unique_ptr<Listener> server;
+    std::thread thread;
+    SocketAddress address;
+    std::string name;  // for logs
+  };
+  std::vector<Slot> slots;
+
+  std::string socket_path;  // the socket file we created and must remove; "" if none
+  struct stat socket_stat{};
+  int bound_http_port = 0;
+
+  std::mutex lifecycle;
+  std::atomic<bool> stopping{false};
+  bool started = false;
+
+  std::atomic<std::uint64_t> events_sent{0};
+  std::atomic<std::size_t> streams_open{0};
+  std::atomic<std::uint64_t> streams_rejected{0};
+  std::mutex requests_mutex;
+  std::map<int, std::uint64_t> requests_by_status;
+
+  Impl(SharedTable& t, StatusSources s) : table(t), status(std::move(s)) {}
+
+  std::vector<DomainStatus> domains() const {
+    std::vector<DomainStatus> out;
+    if (status.domains) out = status.domains();
+    std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.domain < b.domain; });
+    return out;
+  }
+
+  static std::map<int, std::size_t> count_by_domain(const std::vector<nlohmann::json>& devices) {
+    std::map<int, std::size_t> out;
+    for (const auto& d : devices)
+      if (auto it = d.find("domain"); it != d.end() && it->is_number_integer()) ++out[it->get<int>()];
+    return out;
+  }
+
+  void configure(Listener& svr);
+  void handle_devices(const httplib::Request& req, httplib::Response& res);
+  void handle_device(const httplib::Request& req, httplib::Response& res);
+  void handle_domains(const httplib::Request& req, httplib::Response& res);
+  void handle_health(const httplib::Request& req, httplib::Response& res);
+  void handle_metrics(const httplib::Request& req, httplib::Response& res);
+  void handle_events(const httplib::Request& req, httplib::Response& res);
+
+  void launch(std::unique_ptr<Listener> server, std::string name);
+  void start(const ApiOptions& opts);
+  void stop();
+};
+
+void ApiServer::Impl::configure(Listener& svr) {
+  const auto threads = static_cast<std::size_t>(std::max(4, options.worker_threads));
+  svr.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
+  svr.set_tcp_nodelay(true);
+  // httplib's default options set SO_REUSEPORT, which would let a second daemon
+  // bind the same port and silently share it; SO_REUSEADDR alone still allows a
+  // quick restart while refusing a port someone is listening on.
+  svr.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
+  svr.set_payload_max_length(kMaxPayload);
+  svr.set_read_timeout(5, 0);
+  svr.set_write_timeout(5, 0);
+
+  svr.Get("/v1/devices", [this](const auto& req, auto& res) { handle_devices(req, res); });
+  svr.Get(R"(/v1/devices/([^/]+))", [this](const auto& req, auto& res) { handle_device(req, res); });
+  svr.Get("/v1/domains", [this](const auto& req, auto& res) { handle_domains(req, res); });
+  svr.Get("/v1/events", [this](const auto& req, auto& res) { handle_events(req, res); });
+  svr.Get("/healthz", [this](const auto& req, auto& res) { handle_health(req, res); });
+  svr.Get("/metrics", [this](const auto& req, auto& res) { handle_metrics(req, res); });
+
+  // Any other method: 405 where the path exists (so a client learns it is
+  // read-only), 404 where it does not. Registered as plain handlers so httplib
+  // reads (and bounds) the body first and the connection stays in step.
+  auto not_allowed = [](const httplib::Request& req, httplib::Response& res) {
+    if (known_path(req.path)) {
+      res.set_header("Allow", kAllow);
+      send_error(res, 405, "method " + req.method + " not allowed on " + req.path + "; the API is read-only");
+    } else {
+      send_error(res, 404, "no such path: " + req.path);
+    }
+  };
+  // httplib 0.11 answers 400 to a POST/PUT/PATCH/DELETE that has no body
+  // headers at all (it expects one) before any route runs; with no body there is
+  // nothing to read, so answer such requests here, before that check.
+  svr.set_pre_routing_handler([not_allowed](const httplib::Request& req, httplib::Response& res) {
+    if (req.method == "GET" || req.method == "HEAD" || req.has_header("Content-Length") ||
+        req.has_header("Transfer-Encoding"))
+      return httplib::Server::HandlerResponse::Unhandled;
+    not_allowed(req, res);
+    return httplib::Server::HandlerResponse::Handled;
+  });
+  svr.Post(".*", not_allowed);
+  svr.Put(".*", not_allowed);
+  svr.Patch(".*", not_allowed);
+  svr.Delete(".*", not_allowed);
+  svr.Options(".*", not_allowed);
+
+  // Whatever httplib answers on its own (no route, unparsable request, too big)
+  // still gets a JSON body.
+  svr.set_error_handler(httplib::Server::HandlerWithResponse([](const httplib::Request& req, httplib::Response& res) {
+    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    std::string message(status_text(res.status));
+    if (res.status == 404) message = "no such path: " + req.path;
+    if (res.status == 405) res.set_header("Allow", kAllow);
+    res.set_content(error_body(res.status, message), kJson);
+    return httplib::Server::HandlerResponse::Handled;
+  }));
+  svr.set_exception_handler([](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
+    std::string what = "unknown error";
+    try {
+      if (ep) std::rethrow_exception(ep);
+    } catch (const std::exception& e) {
+      what = e.what();
+    } catch (...) {
+    }
+    log::error("api: " + req.method + " " + req.path + " failed: " + what);
+    send_error(res, 500, "internal error");
+  });
+  svr.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+    {
+      std::lock_guard lock(requests_mutex);
+      ++requests_by_status[res.status];
+    }
+    if (log::enabled(log::Level::debug))
+      log::debug("api: " + req.method + " " + req.target + " -> " + std::to_string(res.status));
+  });
+}
+
+void ApiServer::Impl::handle_devices(const httplib::Request& req, httplib::Response& res) {
+  DeviceFilter filter;
+  if (auto err = parse_device_filter(req.params, filter)) return send_error(res, 400, *err);
+  auto snap = table.snapshot();
+  nlohmann::json devices = nlohmann::json::array();
+  for (auto& d : snap.devices)
+    if (filter.matches(d)) devices.push_back(std::move(d));
+  // The generation lets a client list, then stream with ?since=generation,
+  // without missing or repeating an event in between.
+  send_json(res, 200, {{"generation", snap.generation}, {"devices", std::move(devices)}});
+}
+
+void ApiServer::Impl::handle_device(const httplib::Request& req, httplib::Response& res) {
+  const std::string id = req.matches.size() > 1 ? req.matches[1].str() : "";
+  if (auto doc = table.find(id)) return send_json(res, 200, *doc);
+  send_error(res, 404, "no device with id '" + id + "'");
+}
+
+void ApiServer::Impl::handle_domains(const httplib::Request& req, httplib::Response& res) {
+  if (!req.params.empty()) return send_error(res, 400, "/v1/domains takes no query parameters");
+  const auto counts = count_by_domain(table.snapshot().devices);
+  nlohmann::json list = nlohmann::json::array();
+  for (auto d : domains()) {
+    auto it = counts.find(d.domain);
+    d.devices = it == counts.end() ? 0 : it->second;  // the table is the truth the other routes show
+    list.push_back(domain_status_json(d));
+  }
+  send_json(res, 200, {{"domains", std::move(list)}});
+}
+
+void ApiServer::Impl::handle_health(const httplib::Request&, httplib::Response& res) {
+  auto snap = table.snapshot();
+  send_json(res, 200,
+            {{"status", "ok"},
+             {"version", status.version},
+             {"devices", snap.devices.size()},
+             {"generation", snap.generation}});
+}
+
+void ApiServer::Impl::handle_metrics(const httplib::Request&, httplib::Response& res) {
+  MetricsInput in;
+  in.version = status.version;
+  in.domains = domains();
+  auto snap = table.snapshot();
+  in.devices_per_domain = count_by_domain(snap.devices);
+  in.devices_total = snap.devices.size();
+  in.generation = snap.generation;
+  in.events_sent = events_sent.load();
+  in.event_streams = streams_open.load();
+  in.event_streams_rejected = streams_rejected.load();
+  {
+    std::lock_guard lock(requests_mutex);
+    in.requests_by_status = requests_by_status;
+  }
+  res.status = 200;
+  res.set_content(render_metrics(in), "text/plain; version=0.0.4; charset=utf-8");
+}
+
+namespace {
+
+// One SSE client's state, shared by the content provider's copies; its
+// destructor frees the stream slot however the stream ends.
+struct Stream {
+  std::atomic<std::size_t>* open = nullptr;
+  std::uint64_t cursor = 0;  // last generation this client has been brought past
+  DeviceFilter filter;
+  std::string pending;  // written on the first provider call
+  std::chrono::steady_clock::time_point next_keepalive;
+  ~Stream() {
+    if (open) --*open;
+  }
+};
+
+std::string resync_message(std::uint64_t generation, const std::string& reason) {
+  nlohmann::json data = {{"generation", generation}, {"reason", reason}};
+  return sse_message("resync", generation, dump(data));
+}
+
+}  // namespace
+
+void ApiServer::Impl::handle_events(const httplib::Request& req, httplib::Response& res) {
+  DeviceFilter filter;
+  if (auto err = parse_device_filter(req.params, filter, {"since"})) return send_error(res, 400, *err);
+
+  std::optional<std::uint64_t> since;
+  bool bad_last_event_id = false;
+  if (req.has_param("since")) {
+    since = parse_generation(req.get_param_value("since"));
+    if (!since) return send_error(res, 400, "bad since '" + req.get_param_value("since") + "': expected a generation");
+  }
+  // Last-Event-ID is what EventSource sends back on its own; it wins over ?since.
+  if (req.has_header("Last-Event-ID")) {
+    const auto v = req.get_header_value("Last-Event-ID");
+    since = parse_generation(v);
+    if (!since) bad_last_event_id = true;  // not an id of ours: the client must re-list
+  }
+
+  const auto limit = static_cast<std::size_t>(std::max(0, options.max_event_streams));
+  std::size_t n = streams_open.load();
+  do {
+    if (n >= limit) {
+      ++streams_rejected;
+      res.set_header("Retry-After", "5");
+      return send_error(res, 503, "too many event streams (limit " + std::to_string(limit) + "); retry later");
+    }
+  } while (!streams_open.compare_exchange_weak(n, n + 1));
+
+  auto st = std::make_shared<Stream>();
+  st->open = &streams_open;
+  st->filter = std::move(filter);
+  // Browsers reconnect after `retry` ms; a local daemon restarts quickly.
+  st->pending = "retry: 1000\n\n";
+  if (bad_last_event_id) {
+    st->cursor = table.generation();
+    st->pending += resync_message(st->cursor, "unknown Last-Event-ID; re-list /v1/devices");
+  } else if (!since) {
+    st->cursor = table.generation();
+    nlohmann::json hello = {{"generation", st->cursor}, {"version", status.version}};
+    st->pending += sse_message("hello", st->cursor, dump(hello));
+  } else {
+    st->cursor = *since;  // the provider replays from here, or tells the client to resync
+  }
+  st->next_keepalive = std::chrono::steady_clock::now() + std::chrono::milliseconds(options.keepalive_ms);
+
+  res.set_header("Cache-Control", "no-cache");
+  res.set_header("X-Accel-Buffering", "no");  // nginx and friends must not hold events back
+  const auto keepalive = std::chrono::milliseconds(std::max(10, options.keepalive_ms));
+  res.set_chunked_content_provider(
+      "text/event-stream", [this, st, keepalive](std::size_t, httplib::DataSink& sink) -> bool {
+        // httplib does not catch here; an escaping exception would end the process.
+        try {
+          auto write = [&](const std::string& s) { return sink.write(s.data(), s.size()); };
+          if (stopping || table.closed()) {
+            sink.done();
+            return true;
+          }
+          if (!st->pending.empty()) {
+            std::string out = std::move(st->pending);
+            st->pending.clear();
+            if (!write(out)) return false;
+          }
+          const auto now = std::chrono::steady_clock::now();
+          const auto until_keepalive =
+              std::chrono::duration_cast<std::chrono::milliseconds>(st->next_keepalive - now);
+          const auto wait = std::clamp(until_keepalive, std::chrono::milliseconds(0), kStreamSlice);
+          auto got = table.wait_events(st->cursor, wait);
+          if (stopping) {
+            sink.done();
+            return true;
+          }
+          std::string out;
+          std::uint64_t sent = 0;
+          if (got.gap) {
+            st->cursor = table.generation();
+            out = resync_message(st->cursor, "missed events are no longer kept; re-list /v1/devices");
+          }
+          for (const auto& e : got.events) {
+            st->cursor = e.generation;
+            if (!st->filter.matches(e.device)) continue;
+            out += sse_message(to_string(e.type), e.generation, dump(e.device));
+            ++sent;
+          }
+          if (!out.empty()) {
+            if (!write(out)) return false;
+            events_sent += sent;
+            st->next_keepalive = std::chrono::steady_clock::now() + keepalive;
+          } else if (std::chrono::steady_clock::now() >= st->next_keepalive) {
+            // A dead client is only noticed when a write fails; this is also that probe.
+            if (!write(sse_comment("keep-alive"))) return false;
+            st->next_keepalive = std::chrono::steady_clock::now() + keepalive;
+          }
+          return true;
+        } catch (const std::exception& e) {
+          log::error(std::string("api: event stream failed: ") + e.what());
+          return false;
+        }
+      });
+}
+
+void ApiServer::Impl::launch(std::unique_ptr<Listener> server, std::string name) {
+  Slot slot;
+  slot.address = local_address(server->fd());
+  slot.name = std::move(name);
+  Listener* raw = server.get();
+  slot.server = std::move(server);
+  slot.thread = std::thread([raw, n = slot.name] {
+    if (!raw->listen_after_bind()) log::error("api: listener on " + n + " ended with an error");
+  });
+  // stop() is a no-op on a server that is not running yet; wait, so a stop()
+  // right after start() cannot be lost. The socket already listens (bind_to_port
+  // does listen(2)), so clients connecting meanwhile just queue.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (!raw->is_running() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  slots.push_back(std::move(slot));
+}
+
+void ApiServer::Impl::start(const ApiOptions& opts) {
+  std::lock_guard lock(lifecycle);
+  if (started) throw std::runtime_error("API server already started");
+  options = opts;
+  stopping = false;
+  try {
+    if (opts.inherited_unix_fd >= 0 || !opts.unix_socket.empty()) {
+      auto svr = std::make_unique<Listener>();
+      configure(*svr);
+      svr->set_address_family(AF_UNIX);
+      std::string where;
+      if (opts.inherited_unix_fd >= 0) {
+        svr->adopt(opts.inherited_unix_fd);  // systemd owns the file; we never remove it
+        where = "unix fd " + std::to_string(opts.inherited_unix_fd);
+      } else {
+        prepare_unix_socket_path(opts.unix_socket);
+        // Created 0660 from the start (umask), not chmod-ed after a window in which
+        // anyone could connect; chmod then fixes group write if the umask was stricter.
+        const mode_t old = umask(0117);
+        const bool ok = svr->bind_to_port(opts.unix_socket, 1);  // the port is ignored for AF_UNIX
+        const int err = errno;
+        umask(old);
+        if (!ok)
+          throw std::runtime_error("cannot listen on unix socket '" + opts.unix_socket + "': " + std::strerror(err));
+        socket_path = opts.unix_socket;
+        lstat(socket_path.c_str(), &socket_stat);
+        chmod(socket_path.c_str(), 0660);
+        where = "unix socket " + socket_path;
+      }
+      launch(std::move(svr), where);
+      log::info("api: listening on " + where);
+    }
+
+    if (opts.inherited_http_fd >= 0 || !opts.http_host.empty()) {
+      auto svr = std::make_unique<Listener>();
+      configure(*svr);
+      std::string where;
+      if (opts.inherited_http_fd >= 0) {
+        int yes = 1;
+        // Accepted sockets inherit TCP_NODELAY from the listener on Linux.
+        setsockopt(opts.inherited_http_fd, IPPROTO_TCP, TCP_NODELAY, &yes, sizeof yes);
+        svr->adopt(opts.inherited_http_fd);
+        where = "http fd " + std::to_string(opts.inherited_http_fd);
+      } else {
+        std::string host = opts.http_host;
+        if (host.size() > 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+        errno = 0;
+        bool ok;
+        if (opts.http_port == 0) {
+          ok = svr->bind_to_any_port(host) > 0;
+        } else {
+          ok = svr->bind_to_port(host, opts.http_port);
+        }
+        const int err = errno;
+        if (!ok)
+          throw std::runtime_error("cannot listen on http " + opts.http_host + ":" + std::to_string(opts.http_port) +
+                                   ": " + (err ? std::strerror(err) : "address not usable"));
+        where = "http " + opts.http_host + ":" + std::to_string(opts.http_port);
+      }
+      const auto addr = local_address(svr->fd());
+      if (addr.storage.ss_family == AF_INET)
+        bound_http_port = ntohs(reinterpret_cast<const sockaddr_in&>(addr.storage).sin_port);
+      else if (addr.storage.ss_family == AF_INET6)
+        bound_http_port = ntohs(reinterpret_cast<const sockaddr_in6&>(addr.storage).sin6_port);
+      if (opts.http_port == 0 && opts.inherited_http_fd < 0)
+        where = "http " + opts.http_host + ":" + std::to_string(bound_http_port);
+      launch(std::move(svr), where);
+      log::info("api: listening on " + where);
+    }
+  } catch (...) {
+    started = true;  // so that stop() undoes what did start
+    lifecycle.unlock();
+    stop();
+    lifecycle.lock();
+    throw;
+  }
+  started = true;
+}
+
+void ApiServer::Impl::stop() {
+  std::lock_guard lock(lifecycle);
+  if (!started) return;
+  stopping = true;  // SSE providers see it within kStreamSlice and end their streams
+  for (auto& s : slots) s.server->stop();
+  // With the listeners closed no new connection arrives; wake the workers that
+  // sit on idle keep-alive connections or slow clients.
+  for (auto& s : slots) shutdown_accepted_connections(s.address);
+  for (auto& s : slots)
+    if (s.thread.joinable()) s.thread.join();
+  slots.clear();
+  if (!socket_path.empty()) {
+    // Only our own file: if another daemon replaced it meanwhile, it is theirs.
+    struct stat now{};
+    if (lstat(socket_path.c_str(), &now) == 0 && now.st_ino == socket_stat.st_ino && now.st_dev == socket_stat.st_dev)
+      unlink(socket_path.c_str());
+    socket_path.clear();
+  }
+  bound_http_port = 0;
+  started = false;
+}
+
+ApiServer::ApiServer(SharedTable& table, StatusSources status)
+    : impl_(std::make_unique<Impl>(table, std::move(status))) {}
+
+ApiServer::~ApiServer() { stop(); }
+
+void ApiServer::start(const ApiOptions& options) { impl_->start(options); }
+
+void ApiServer::stop() { impl_->stop(); }
+
+int ApiServer::http_port() const { return impl_->bound_http_port; }
+
+}  // namespace rsd::api

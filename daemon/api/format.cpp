@@ -1,0 +1,249 @@
+#include "api/format.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <limits>
+
+namespace rsd::api {
+
+std::string dump(const nlohmann::json& doc) {
+  return doc.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+std::string_view status_text(int status) {
+  switch (status) {
+    case 200: return "OK";
+    case 400: return "bad request";
+    case 403: return "forbidden";
+    case 404: return "not found";
+    case 405: return "method not allowed";
+    case 408: return "request timeout";
+    case 413: return "payload too large";
+    case 414: return "URI too long";
+    case 416: return "range not satisfiable";
+    case 431: return "request header fields too large";
+    case 500: return "internal server error";
+    case 503: return "service unavailable";
+    default: return status >= 500 ? "server error" : "client error";
+  }
+}
+
+std::string error_body(int status, std::string_view message) {
+  nlohmann::json body = {{"error", std::string(message)}, {"status", status}};
+  return dump(body) + "\n";
+}
+
+namespace {
+
+std::string lower(std::string_view s) {
+  std::string out(s);
+  std::transform(out.begin(), out.end(), out.begin(),
+                 [](unsigned char c) { return static_cast<char>(c >= 'A' && c <= 'Z' ? c + 32 : c); });
+  return out;
+}
+
+bool all_digits(std::string_view s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+}  // namespace
+
+std::optional<int> parse_domain(std::string_view text) {
+  // The length cap keeps "0000…0001" from counting as a valid id.
+  if (!all_digits(text) || text.size() > 3) return std::nullopt;
+  int value = 0;
+  std::from_chars(text.data(), text.data() + text.size(), value);
+  if (value > 232) return std::nullopt;
+  return value;
+}
+
+std::optional<std::uint64_t> parse_generation(std::string_view text) {
+  if (!all_digits(text)) return std::nullopt;
+  std::uint64_t value = 0;
+  auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (ec != std::errc() || end != text.data() + text.size()) return std::nullopt;
+  return value;
+}
+
+std::optional<std::string> parse_device_filter(const QueryParams& params, DeviceFilter& out,
+                                               const std::set<std::string>& also_allowed) {
+  for (const auto& [key, value] : params) {
+    if (key == "domain") {
+      auto d = parse_domain(value);
+      if (!d) return "bad domain '" + value + "': expected an integer 0..232";
+      out.domains.insert(*d);
+    } else if (key == "product-line") {
+      if (value.empty()) return std::string("empty product-line");
+      out.product_lines.insert(lower(value));
+    } else if (key == "source") {
+      if (value != "dds" && value != "usb") return "bad source '" + value + "': expected dds or usb";
+      out.sources.insert(value);
+    } else if (!also_allowed.contains(key)) {
+      std::string allowed = "domain, product-line, source";
+      for (const auto& k : also_allowed) allowed += ", " + k;
+      return "unknown query parameter '" + key + "' (known: " + allowed + ")";
+    }
+  }
+  return std::nullopt;
+}
+
+bool DeviceFilter::matches(const nlohmann::json& device) const {
+  if (!device.is_object()) return false;
+  if (!domains.empty()) {
+    auto it = device.find("domain");
+    if (it == device.end() || !it->is_number_integer() || !domains.contains(it->get<int>()))
+      return false;
+  }
+  if (!product_lines.empty()) {
+    auto it = device.find("product-line");
+    if (it == device.end() || !it->is_string() || !product_lines.contains(lower(it->get<std::string>())))
+      return false;
+  }
+  if (!sources.empty()) {
+    // A device seen by one source has "source"; one merged from several (a later
+    // issue) has "sources": match either.
+    bool hit = false;
+    if (auto it = device.find("source"); it != device.end() && it->is_string())
+      hit = sources.contains(it->get<std::string>());
+    if (auto it = device.find("sources"); !hit && it != device.end() && it->is_array())
+      for (const auto& s : *it)
+        if (s.is_string() && sources.contains(s.get<std::string>())) hit = true;
+    if (!hit) return false;
+  }
+  return true;
+}
+
+std::string sse_message(std::string_view event, std::optional<std::uint64_t> id,
+                        std::string_view data) {
+  std::string out;
+  out.reserve(data.size() + event.size() + 40);
+  if (!event.empty()) out.append("event: ").append(event).append("\n");
+  if (id) out.append("id: ").append(std::to_string(*id)).append("\n");
+  // Split on \n, \r\n and \r alike: all three end a line for an SSE parser.
+  std::size_t start = 0;
+  while (true) {
+    std::size_t end = data.find_first_of("\r\n", start);
+    out.append("data: ").append(data.substr(start, end == std::string_view::npos ? end : end - start)).append("\n");
+    if (end == std::string_view::npos) break;
+    start = end + ((data[end] == '\r' && end + 1 < data.size() && data[end + 1] == '\n') ? 2 : 1);
+  }
+  out.append("\n");
+  return out;
+}
+
+std::string sse_comment(std::string_view text) {
+  std::string out = ": ";
+  for (char c : text) out.push_back(c == '\n' || c == '\r' ? ' ' : c);
+  out.append("\n\n");
+  return out;
+}
+
+nlohmann::json domain_status_json(const DomainStatus& s) {
+  nlohmann::json rejected = nlohmann::json::object();
+  for (const auto& [reason, count] : s.rejected) rejected[reason] = count;
+  return {{"domain", s.domain},
+          {"state", s.state},
+          {"participant-guid", s.participant_guid},
+          {"error", s.error},
+          {"devices", s.devices},
+          {"accepted", s.accepted},
+          {"stopping", s.stopping},
+          {"rejected", rejected},
+          {"rebuilds", s.rebuilds}};
+}
+
+std::string prometheus_label_value(std::string_view raw) {
+  std::string out;
+  for (char c : raw) {
+    if (c == '\\') out += "\\\\";
+    else if (c == '"') out += "\\\"";
+    else if (c == '\n') out += "\\n";
+    else out.push_back(c);
+  }
+  return out;
+}
+
+namespace {
+
+class MetricWriter {
+ public:
+  void family(std::string_view name, std::string_view type, std::string_view help) {
+    out_.append("# HELP ").append(name).append(" ").append(help).append("\n");
+    out_.append("# TYPE ").append(name).append(" ").append(type).append("\n");
+  }
+  void sample(std::string_view name, const std::vector<std::pair<std::string, std::string>>& labels,
+              std::uint64_t value) {
+    out_.append(name);
+    if (!labels.empty()) {
+      out_.push_back('{');
+      bool first = true;
+      for (const auto& [k, v] : labels) {
+        if (!first) out_.push_back(',');
+        first = false;
+        out_.append(k).append("=\"").append(prometheus_label_value(v)).append("\"");
+      }
+      out_.push_back('}');
+    }
+    out_.append(" ").append(std::to_string(value)).append("\n");
+  }
+  std::string take() { return std::move(out_); }
+
+ private:
+  std::string out_;
+};
+
+}  // namespace
+
+std::string render_metrics(const MetricsInput& in) {
+  MetricWriter w;
+  w.family("rsd_build_info", "gauge", "Always 1; the daemon's version as a label.");
+  w.sample("rsd_build_info", {{"version", in.version}}, 1);
+
+  // Every configured domain shows up, with 0 when it has no devices, so an
+  // alert on "devices == 0" works for a domain that never saw one.
+  std::map<int, std::size_t> per_domain = in.devices_per_domain;
+  for (const auto& d : in.domains) per_domain.try_emplace(d.domain, 0);
+  w.family("rsd_devices", "gauge", "Devices in the table, by DDS domain.");
+  for (const auto& [domain, n] : per_domain) w.sample("rsd_devices", {{"domain", std::to_string(domain)}}, n);
+
+  w.family("rsd_table_devices", "gauge", "Devices in the table, all sources.");
+  w.sample("rsd_table_devices", {}, in.devices_total);
+  w.family("rsd_table_generation", "gauge", "Generation of the last table event (the SSE id).");
+  w.sample("rsd_table_generation", {}, in.generation);
+
+  w.family("rsd_domain_up", "gauge", "1 when the domain's DDS side is running, by state.");
+  for (const auto& d : in.domains)
+    w.sample("rsd_domain_up", {{"domain", std::to_string(d.domain)}, {"state", d.state}},
+             d.state == "running" ? 1 : 0);
+
+  w.family("rsd_messages_accepted_total", "counter", "device-info messages taken into the table.");
+  for (const auto& d : in.domains)
+    w.sample("rsd_messages_accepted_total", {{"domain", std::to_string(d.domain)}}, d.accepted);
+
+  w.family("rsd_messages_rejected_total", "counter", "device-info messages dropped, by reason.");
+  for (const auto& d : in.domains)
+    for (const auto& [reason, n] : d.rejected)
+      w.sample("rsd_messages_rejected_total", {{"domain", std::to_string(d.domain)}, {"reason", reason}}, n);
+
+  w.family("rsd_stopping_messages_total", "counter", "'stopping' messages honoured.");
+  for (const auto& d : in.domains)
+    w.sample("rsd_stopping_messages_total", {{"domain", std::to_string(d.domain)}}, d.stopping);
+
+  w.family("rsd_domain_rebuilds_total", "counter", "Times a domain's participant was rebuilt.");
+  for (const auto& d : in.domains)
+    w.sample("rsd_domain_rebuilds_total", {{"domain", std::to_string(d.domain)}}, d.rebuilds);
+
+  w.family("rsd_events_sent_total", "counter", "Device events written to SSE clients.");
+  w.sample("rsd_events_sent_total", {}, in.events_sent);
+  w.family("rsd_event_streams", "gauge", "Open SSE streams.");
+  w.sample("rsd_event_streams", {}, in.event_streams);
+  w.family("rsd_event_streams_rejected_total", "counter", "SSE streams refused at the limit (503).");
+  w.sample("rsd_event_streams_rejected_total", {}, in.event_streams_rejected);
+
+  w.family("rsd_api_requests_total", "counter", "API requests answered, by HTTP status.");
+  for (const auto& [status, n] : in.requests_by_status)
+    w.sample("rsd_api_requests_total", {{"status", std::to_string(status)}}, n);
+  return w.take();
+}
+
+}  // namespace rsd::api

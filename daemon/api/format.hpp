@@ -1,0 +1,80 @@
+// The API's pure pieces: query filters, JSON bodies, Server-Sent Events framing
+// and the Prometheus text. No sockets and no threads, so the unit tests drive
+// them directly and the server code stays about transport.
+#pragma once
+
+#include "dds/domain_status.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace rsd::api {
+
+// Same shape as httplib::Params, without pulling httplib into the pure code.
+using QueryParams = std::multimap<std::string, std::string>;
+
+// Device documents may carry peer-supplied strings that are not valid UTF-8;
+// nlohmann throws on those by default, which would turn one bad device into a
+// failing endpoint. Replace them instead. Always one line (no indentation).
+std::string dump(const nlohmann::json& doc);
+
+// {"error": message, "status": status} with a trailing newline.
+std::string error_body(int status, std::string_view message);
+std::string_view status_text(int status);
+
+// Repeating a key ORs its values (?domain=0&domain=1); different keys AND.
+struct DeviceFilter {
+  std::set<int> domains;
+  std::set<std::string> product_lines;  // compared case-insensitively
+  std::set<std::string> sources;        // "dds", "usb"
+
+  bool empty() const { return domains.empty() && product_lines.empty() && sources.empty(); }
+  bool matches(const nlohmann::json& device) const;
+};
+
+// Parses the filter keys (domain, product-line, source); any other key must be
+// in `also_allowed`, else it is an error, so a typo such as ?domian=1 is not
+// silently ignored and answered with every device. Returns the error message
+// for a 400, or nothing.
+std::optional<std::string> parse_device_filter(const QueryParams& params, DeviceFilter& out,
+                                               const std::set<std::string>& also_allowed = {});
+
+// A DDS domain id as the API accepts it: decimal 0..232, nothing else.
+std::optional<int> parse_domain(std::string_view text);
+// An SSE id / generation: decimal digits only, no sign, no overflow.
+std::optional<std::uint64_t> parse_generation(std::string_view text);
+
+// One SSE message. `data` may hold newlines: each line becomes its own data:
+// field, as the SSE grammar requires. Ends with the blank line that dispatches it.
+std::string sse_message(std::string_view event, std::optional<std::uint64_t> id,
+                        std::string_view data);
+// A comment line; clients ignore it, proxies see traffic on an idle stream.
+std::string sse_comment(std::string_view text);
+
+nlohmann::json domain_status_json(const DomainStatus& status);
+
+// Everything /metrics reports, gathered by the server at request time.
+struct MetricsInput {
+  std::string version;
+  std::vector<DomainStatus> domains;
+  std::map<int, std::size_t> devices_per_domain;  // from the table; wins over DomainStatus::devices
+  std::size_t devices_total = 0;
+  std::uint64_t generation = 0;
+  std::uint64_t events_sent = 0;
+  std::size_t event_streams = 0;
+  std::uint64_t event_streams_rejected = 0;
+  std::map<int, std::uint64_t> requests_by_status;
+};
+
+// Prometheus text exposition format 0.0.4.
+std::string render_metrics(const MetricsInput& in);
+std::string prometheus_label_value(std::string_view raw);
+
+}  // namespace rsd::api

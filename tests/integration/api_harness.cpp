@@ -1,0 +1,103 @@
+// The real ApiServer over a table the test drives through stdin, with no DDS.
+// It reaches what the daemon cannot be made to do on cue: a change log that
+// overflows (resync), dozens of devices, devices with odd fields, the stream limit.
+//
+//   api_harness [--socket PATH] [--http HOST:PORT] [--keepalive-ms N]
+//               [--max-streams N] [--log-capacity N] [--first-generation N]
+// stdout: "ready http_port=N" once serving; stdin lines:
+//   upsert ID {json}   remove ID   domains [DomainStatus json...]   stop
+// Each command is acknowledged with "ok <generation>".
+#include "api/api_server.hpp"
+#include "log/log.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cstdlib>
+#include <iostream>
+#include <mutex>
+#include <string>
+
+int main(int argc, char** argv) {
+  rsd::api::ApiOptions options;
+  std::size_t log_capacity = 4096;
+  std::uint64_t first_generation = 0;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string flag = argv[i], value = argv[i + 1];
+    if (flag == "--socket") {
+      options.unix_socket = value;
+    } else if (flag == "--http") {
+      const auto colon = value.rfind(':');
+      options.http_host = value.substr(0, colon);
+      options.http_port = std::stoi(value.substr(colon + 1));
+    } else if (flag == "--keepalive-ms") {
+      options.keepalive_ms = std::stoi(value);
+    } else if (flag == "--max-streams") {
+      options.max_event_streams = std::stoi(value);
+    } else if (flag == "--log-capacity") {
+      log_capacity = std::stoul(value);
+    } else if (flag == "--first-generation") {
+      first_generation = std::stoull(value);
+    } else {
+      std::cerr << "unknown flag " << flag << "\n";
+      return 2;
+    }
+  }
+  rsd::log::set_level(rsd::log::Level::debug);
+
+  rsd::SharedTable table(log_capacity, first_generation);
+  std::mutex domains_mutex;
+  std::vector<rsd::DomainStatus> domains;
+  rsd::api::StatusSources sources;
+  sources.version = "0.0.0-harness";
+  sources.domains = [&] {
+    std::lock_guard lock(domains_mutex);
+    return domains;
+  };
+
+  rsd::api::ApiServer server(table, sources);
+  try {
+    server.start(options);
+  } catch (const std::exception& e) {
+    std::cout << "error " << e.what() << std::endl;
+    return 1;
+  }
+  std::cout << "ready http_port=" << server.http_port() << std::endl;
+
+  std::string line;
+  while (std::getline(std::cin, line)) {
+    const auto sp = line.find(' ');
+    const std::string cmd = line.substr(0, sp), rest = sp == std::string::npos ? "" : line.substr(sp + 1);
+    try {
+      if (cmd == "upsert") {
+        const auto sp2 = rest.find(' ');
+        table.upsert(rest.substr(0, sp2), nlohmann::json::parse(rest.substr(sp2 + 1)));
+      } else if (cmd == "remove") {
+        table.remove(rest);
+      } else if (cmd == "domains") {
+        std::vector<rsd::DomainStatus> next;
+        for (const auto& d : nlohmann::json::parse(rest)) {
+          rsd::DomainStatus s;
+          s.domain = d.value("domain", 0);
+          s.state = d.value("state", "running");
+          s.participant_guid = d.value("participant-guid", "");
+          s.accepted = d.value("accepted", 0u);
+          s.rejected = d.value("rejected", std::map<std::string, std::uint64_t>{});
+          next.push_back(s);
+        }
+        std::lock_guard lock(domains_mutex);
+        domains = next;
+      } else if (cmd == "stop") {
+        break;
+      }
+      std::cout << "ok " << table.generation() << std::endl;
+    } catch (const std::exception& e) {
+      std::cout << "error " << e.what() << std::endl;
+    }
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  server.stop();
+  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - t0);
+  std::cout << "stopped ms=" << ms.count() << std::endl;
+  return 0;
+}
