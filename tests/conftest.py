@@ -1,0 +1,318 @@
+"""Fixtures shared by every pytest suite: each test gets its own DDS domain,
+Unix socket and TCP port, so suites run in parallel and never see each other.
+
+- free_domain: a DDS domain id held (by an flock) for the test's lifetime.
+- daemon: factory starting the real rs-discoveryd binary ($RSD_DAEMON).
+- realdds_server: factory starting tests/tools/realdds_server.py (real realdds).
+- wait_for(): polls a condition until a deadline; never a bare sleep.
+"""
+import fcntl
+import http.client
+import json
+import os
+import random
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+import pytest
+
+TESTS_DIR = os.path.dirname(os.path.abspath(__file__))
+DAEMON = os.environ.get("RSD_DAEMON", os.path.join(os.environ.get("RSD_BUILD_DIR", ""), "daemon", "rs-discoveryd"))
+LOCK_DIR = os.path.join(tempfile.gettempdir(), "rsd-test-domains")
+
+
+def wait_for(predicate, timeout=10.0, interval=0.02, what="condition"):
+    """Returns predicate()'s first truthy value; fails the test at the deadline."""
+    deadline = time.monotonic() + timeout
+    last = None
+    while time.monotonic() < deadline:
+        last = predicate()
+        if last:
+            return last
+        time.sleep(interval)
+    pytest.fail(f"timed out after {timeout}s waiting for {what} (last: {last!r})")
+
+
+class UnixHTTPConnection(http.client.HTTPConnection):
+    def __init__(self, path, timeout=5.0):
+        super().__init__("localhost", timeout=timeout)
+        self.path = path
+
+    def connect(self):
+        s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        s.settimeout(self.timeout)
+        s.connect(self.path)
+        self.sock = s
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class DomainLocks:
+    """DDS domain ids 1..232 handed out across parallel test processes."""
+
+    def __init__(self):
+        os.makedirs(LOCK_DIR, exist_ok=True)
+        self.held = []
+
+    def take(self, lo=1, hi=232):
+        ids = list(range(lo, hi + 1))
+        random.shuffle(ids)
+        for d in ids:
+            f = open(os.path.join(LOCK_DIR, f"{d}.lock"), "w")
+            try:
+                fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                f.close()
+                continue
+            self.held.append(f)
+            return d
+        pytest.fail("no free DDS domain id for the test")
+
+    def release(self):
+        for f in self.held:
+            f.close()
+        self.held.clear()
+
+
+@pytest.fixture
+def domains():
+    locks = DomainLocks()
+    yield locks
+    locks.release()
+
+
+@pytest.fixture
+def free_domain(domains):
+    return domains.take()
+
+
+class Daemon:
+    def __init__(self, args, tmpdir, socket_path, port, env=None):
+        self.socket = socket_path
+        self.port = port
+        self.url = f"http://127.0.0.1:{port}" if port else None
+        self.log_path = os.path.join(tmpdir, f"daemon-{time.monotonic_ns()}.log")
+        self._log = open(self.log_path, "wb")
+        full_env = dict(os.environ)
+        full_env.update(env or {})
+        self.proc = subprocess.Popen([DAEMON] + args, stdout=self._log, stderr=subprocess.STDOUT, env=full_env)
+
+    def log(self):
+        with open(self.log_path, "rb") as f:
+            return f.read().decode("utf-8", "replace")
+
+    def request(self, path, method="GET", via="unix", headers=None, body=None, timeout=5.0):
+        """Returns (status, headers dict, body bytes)."""
+        if via == "unix":
+            conn = UnixHTTPConnection(self.socket, timeout=timeout)
+        else:
+            conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout)
+        try:
+            conn.request(method, path, body=body, headers=headers or {})
+            r = conn.getresponse()
+            return r.status, {k.lower(): v for k, v in r.getheaders()}, r.read()
+        finally:
+            conn.close()
+
+    def get_json(self, path, via="unix", expect=200):
+        status, _, body = self.request(path, via=via)
+        assert status == expect, f"GET {path}: {status} {body[:300]!r}"
+        return json.loads(body)
+
+    def devices(self, query="", via="unix"):
+        return self.get_json("/v1/devices" + query, via=via)["devices"]
+
+    def device_ids(self, query=""):
+        return sorted(d["id"] for d in self.devices(query))
+
+    def healthy(self):
+        try:
+            return self.request("/healthz", timeout=1.0)[0] == 200
+        except OSError:
+            return False
+
+    def wait_ready(self, timeout=15.0):
+        def ok():
+            if self.proc.poll() is not None:
+                pytest.fail(f"daemon exited with {self.proc.returncode}:\n{self.log()}")
+            return self.healthy() and all(d["state"] == "running" for d in self.get_json("/v1/domains")["domains"])
+        wait_for(ok, timeout, what="daemon ready (API up, every domain reading)")
+        return self
+
+    def signal(self, sig):
+        self.proc.send_signal(sig)
+
+    def stop(self, timeout=5.0):
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self._log.close()
+        return self.proc.returncode
+
+
+@pytest.fixture
+def daemon(tmp_path):
+    """daemon(domains=[..], extra=[..], wait=True) -> Daemon, stopped after the test."""
+    started = []
+
+    def start(domains, extra=(), wait=True, http=True, env=None):
+        sock = os.path.join(tmp_path, f"api-{len(started)}.sock")
+        port = free_port() if http else None
+        args = []
+        for d in domains:
+            args += ["--domain", str(d)]
+        args += ["--socket", sock, "--http", f"127.0.0.1:{port}" if port else "off", "--no-usb",
+                 "--log-level", "debug"]
+        args += list(extra)
+        d = Daemon(args, str(tmp_path), sock, port, env)
+        started.append(d)
+        if wait:
+            d.wait_ready()
+        return d
+
+    yield start
+    for d in started:
+        code = d.stop()
+        # ASan/UBSan findings make the daemon exit non-zero: fail the test on them.
+        assert code in (0, -signal.SIGKILL), f"daemon exited with {code}:\n{d.log()[-4000:]}"
+
+
+class RealddsServer:
+    def __init__(self, domain, devices, name="test-server"):
+        args = [sys.executable, os.path.join(TESTS_DIR, "tools", "realdds_server.py"), "--domain", str(domain),
+                "--name", name]
+        for info in devices:
+            args += ["--device", json.dumps(info)]
+        self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        line = self.proc.stdout.readline()
+        assert line, "realdds server did not start"
+        self.hello = json.loads(line)
+
+    def command(self, **msg):
+        self.proc.stdin.write(json.dumps(msg) + "\n")
+        self.proc.stdin.flush()
+        reply = json.loads(self.proc.stdout.readline())
+        assert reply.get("ok"), reply
+        return reply
+
+    def quit(self):
+        if self.proc.poll() is None:
+            self.command(cmd="quit")
+            self.proc.wait(10)
+
+    def kill(self):
+        self.proc.kill()
+        self.proc.wait()
+
+
+def device_info(n, serial=None, **extra):
+    """A device-info as a D455 camera sends it."""
+    serial = serial or f"1236222707{n:02d}"
+    info = {"name": "Intel RealSense D455", "serial": serial, "product-line": "D400", "product-id": "0B5C",
+            "fw-version": "5.16.0.1", "topic-root": f"realsense/D455_{serial}"}
+    info.update(extra)
+    return info
+
+
+@pytest.fixture
+def realdds_server():
+    """realdds_server(domain, [device-info...], name=...) -> RealddsServer."""
+    servers = []
+
+    def start(domain, devices, name="test-server"):
+        s = RealddsServer(domain, devices, name)
+        servers.append(s)
+        return s
+
+    yield start
+    for s in servers:
+        if s.proc.poll() is None:
+            s.kill()
+
+
+class EventStream:
+    """A client of /v1/events, read on a thread so tests can wait with deadlines."""
+
+    def __init__(self, daemon, last_event_id=None, via="unix", query=""):
+        import queue
+        import threading
+
+        self.events = queue.Queue()
+        self.comments = 0
+        headers = {"Accept": "text/event-stream"}
+        if last_event_id is not None:
+            headers["Last-Event-ID"] = str(last_event_id)
+        if via == "unix":
+            self.conn = UnixHTTPConnection(daemon.socket, timeout=60)
+        else:
+            self.conn = http.client.HTTPConnection("127.0.0.1", daemon.port, timeout=60)
+        self.conn.request("GET", "/v1/events" + query, headers=headers)
+        self.response = self.conn.getresponse()
+        assert self.response.status == 200, self.response.status
+        self.content_type = self.response.getheader("Content-Type", "")
+        self.thread = threading.Thread(target=self._read, daemon=True)
+        self.thread.start()
+
+    def _read(self):
+        event = {}
+        try:
+            while True:
+                line = self.response.fp.readline()
+                if not line:
+                    break
+                line = line.decode("utf-8").rstrip("\r\n")
+                if line == "":
+                    if event:
+                        if "data" in event:
+                            try:
+                                event["json"] = json.loads(event["data"])
+                            except ValueError:
+                                pass
+                        self.events.put(event)
+                    event = {}
+                elif line.startswith(":"):
+                    self.comments += 1
+                else:
+                    key, _, value = line.partition(":")
+                    value = value[1:] if value.startswith(" ") else value
+                    event[key] = event.get(key, "") + ("\n" if key == "data" and key in event else "") + value
+        except (OSError, ValueError):
+            pass
+        self.events.put(None)  # end of stream
+
+    def next(self, timeout=10.0, types=("added", "changed", "removed", "resync")):
+        """The next event of one of `types` (others, such as hello, are skipped)."""
+        import queue
+
+        deadline = time.monotonic() + timeout
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                pytest.fail(f"no {types} event within {timeout}s")
+            try:
+                ev = self.events.get(timeout=left)
+            except queue.Empty:
+                pytest.fail(f"no {types} event within {timeout}s")
+            if ev is None:
+                pytest.fail("event stream ended")
+            if ev.get("event") in types:
+                return ev
+
+    def close(self):
+        try:
+            self.conn.sock.shutdown(socket.SHUT_RDWR)
+        except OSError:
+            pass
+        self.conn.close()
