@@ -1,0 +1,165 @@
+#include "usb/usb_device.hpp"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+namespace rsd::usb {
+namespace {
+
+std::string hex4(std::uint16_t v) {
+  char buf[8];
+  std::snprintf(buf, sizeof buf, "%04X", static_cast<unsigned>(v));
+  return buf;
+}
+
+std::string trim(std::string_view s) {
+  const auto ws = " \t\r\n";
+  const auto b = s.find_first_not_of(ws);
+  if (b == std::string_view::npos) return {};
+  const auto e = s.find_last_not_of(ws);
+  return std::string(s.substr(b, e - b + 1));
+}
+
+// A sysfs attribute's text (they are small), or nullopt when it cannot be read.
+std::optional<std::string> read_attr(const std::filesystem::path& dir, const char* name) {
+  std::ifstream in(dir / name, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::string text(256, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  return text;
+}
+
+std::optional<long> parse_long(const std::string& text) {
+  const auto t = trim(text);
+  long v = 0;
+  auto [p, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
+  if (ec != std::errc() || p != t.data() + t.size()) return std::nullopt;
+  return v;
+}
+
+}  // namespace
+
+std::string port_path(std::uint8_t bus, const std::vector<std::uint8_t>& ports) {
+  if (ports.empty()) return "usb" + std::to_string(bus);
+  std::string out = std::to_string(bus) + "-";
+  for (std::size_t i = 0; i < ports.size(); ++i) {
+    if (i) out += '.';
+    out += std::to_string(ports[i]);
+  }
+  return out;
+}
+
+std::string speed_name(double mbps) {
+  if (mbps <= 0) return "unknown";
+  if (mbps < 12) return "low";
+  if (mbps < 480) return "full";
+  if (mbps < 5000) return "high";
+  if (mbps < 10000) return "super";
+  return "super-plus";
+}
+
+std::optional<std::string> clean_serial(std::string_view raw) {
+  std::string s = trim(raw);
+  if (s.empty() || s.size() > 64) return std::nullopt;
+  for (unsigned char c : s)
+    if (c < 0x20 || c > 0x7E) return std::nullopt;
+  return s;
+}
+
+std::string url_safe(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (unsigned char c : text) {
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
+                    c == '.' || c == '_' || c == '~' || c == '-';
+    out += ok ? static_cast<char>(c) : '_';
+  }
+  return out;
+}
+
+std::string sighting_id(const UsbSighting& s) {
+  if (s.serial) return "usb-" + url_safe(*s.serial);
+  return "usb-port-" + port_path(s.bus, s.ports);
+}
+
+std::optional<std::string> link_warning(const UsbSighting& s, const ProductInfo& product) {
+  if (!product.usb3 || s.speed_mbps <= 0 || s.speed_mbps >= 5000) return std::nullopt;
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "This USB 3 camera is connected at USB 2 speed (%g Mbit/s): depth and color "
+                "streams will be limited to low resolutions and frame rates. Plug it into a "
+                "USB 3 port with a USB 3 cable, without USB 2 hubs or extensions in between.",
+                s.speed_mbps);
+  return std::string(buf);
+}
+
+nlohmann::json to_json(const UsbSighting& s, const ProductInfo& product) {
+  nlohmann::json usb = {
+      {"bus", s.bus},
+      {"address", s.address},
+      {"port-path", port_path(s.bus, s.ports)},
+      {"speed", speed_name(s.speed_mbps)},
+      {"vid", hex4(s.vid)},
+      {"pid", hex4(s.pid)},
+  };
+  if (s.speed_mbps > 0) {
+    if (std::floor(s.speed_mbps) == s.speed_mbps)
+      usb["speed-mbps"] = static_cast<std::int64_t>(s.speed_mbps);
+    else
+      usb["speed-mbps"] = s.speed_mbps;
+  }
+  if (s.bcd_usb) {
+    char ver[16];
+    std::snprintf(ver, sizeof ver, "%x.%02x", static_cast<unsigned>(s.bcd_usb >> 8),
+                  static_cast<unsigned>(s.bcd_usb & 0xFF));
+    usb["usb-version"] = ver;
+  }
+  if (!s.sysfs_path.empty()) usb["sysfs-path"] = s.sysfs_path;
+
+  nlohmann::json doc = {
+      {"source", "usb"},
+      {"name", std::string("Intel RealSense ") + product.name},
+      {"product-id", hex4(s.pid)},
+      {"product-line", product.product_line},
+      {"recovery", product.recovery},
+      {"usb", std::move(usb)},
+  };
+  if (s.serial) doc["serial"] = *s.serial;
+  if (auto w = link_warning(s, product)) doc["warnings"] = nlohmann::json::array({*w});
+  return doc;
+}
+
+SysfsInfo read_sysfs(const std::string& sysfs_root, std::uint8_t bus,
+                     const std::vector<std::uint8_t>& ports, std::uint8_t address) {
+  namespace fs = std::filesystem;
+  SysfsInfo info;
+  const fs::path link = fs::path(sysfs_root) / "bus/usb/devices" / port_path(bus, ports);
+  const auto busnum = read_attr(link, "busnum");
+  const auto devnum = read_attr(link, "devnum");
+  if (!busnum || !devnum || parse_long(*busnum) != bus || parse_long(*devnum) != address)
+    return info;
+  info.matches = true;
+  if (auto serial = read_attr(link, "serial")) info.serial = clean_serial(*serial);
+  if (auto speed = read_attr(link, "speed")) {
+    const auto t = trim(*speed);
+    char* end = nullptr;
+    const double v = std::strtod(t.c_str(), &end);
+    if (end && *end == '\0' && v > 0 && v < 1e6) info.speed_mbps = v;
+  }
+  // The link is relative ("../../../devices/..."): resolve it by hand so the path
+  // is the kernel's, whatever the process' view of the filesystem.
+  std::error_code ec;
+  const fs::path target = fs::read_symlink(link, ec);
+  if (!ec)
+    info.path = (target.is_absolute() ? target : (link.parent_path() / target)).lexically_normal().string();
+  return info;
+}
+
+}  // namespace rsd::usb
