@@ -1,0 +1,225 @@
+#include "api/format.hpp"
+#include "api/listener.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+using namespace rsd::api;
+using nlohmann::json;
+
+TEST(ApiFilter, EmptyQueryMatchesEverything) {
+  DeviceFilter f;
+  EXPECT_FALSE(parse_device_filter({}, f));
+  EXPECT_TRUE(f.empty());
+  EXPECT_TRUE(f.matches(json{{"id", "x"}}));
+}
+
+TEST(ApiFilter, DomainIsStrict) {
+  for (const char* bad : {"", "-1", "233", "1x", " 1", "+1", "0x1", "1.0", "99999999999999999999", "0001"}) {
+    DeviceFilter f;
+    EXPECT_TRUE(parse_device_filter({{"domain", bad}}, f)) << bad;
+  }
+  DeviceFilter f;
+  ASSERT_FALSE(parse_device_filter({{"domain", "0"}, {"domain", "232"}}, f));
+  EXPECT_EQ(f.domains, (std::set<int>{0, 232}));
+  EXPECT_TRUE(f.matches(json{{"domain", 232}}));
+  EXPECT_FALSE(f.matches(json{{"domain", 7}}));
+  EXPECT_FALSE(f.matches(json{{"domain", "0"}}));  // a string is not the domain
+  EXPECT_FALSE(f.matches(json{{"id", "usb-1"}}));  // no domain at all
+}
+
+TEST(ApiFilter, ProductLineIgnoresCase) {
+  DeviceFilter f;
+  ASSERT_FALSE(parse_device_filter({{"product-line", "d400"}}, f));
+  EXPECT_TRUE(f.matches(json{{"product-line", "D400"}}));
+  EXPECT_FALSE(f.matches(json{{"product-line", "D500"}}));
+  EXPECT_FALSE(f.matches(json{{"product-line", 400}}));
+  DeviceFilter empty;
+  EXPECT_TRUE(parse_device_filter({{"product-line", ""}}, empty));
+}
+
+TEST(ApiFilter, SourceMatchesSourceOrSources) {
+  DeviceFilter f;
+  ASSERT_FALSE(parse_device_filter({{"source", "usb"}}, f));
+  EXPECT_TRUE(f.matches(json{{"source", "usb"}}));
+  EXPECT_TRUE(f.matches(json{{"sources", {"dds", "usb"}}}));
+  EXPECT_FALSE(f.matches(json{{"source", "dds"}, {"sources", {"dds"}}}));
+  DeviceFilter bad;
+  EXPECT_TRUE(parse_device_filter({{"source", "ethernet"}}, bad));
+}
+
+TEST(ApiFilter, KeysAndTogetherValuesOr) {
+  DeviceFilter f;
+  ASSERT_FALSE(parse_device_filter({{"domain", "1"}, {"domain", "2"}, {"source", "dds"}}, f));
+  EXPECT_TRUE(f.matches(json{{"domain", 2}, {"source", "dds"}}));
+  EXPECT_FALSE(f.matches(json{{"domain", 2}, {"source", "usb"}}));
+  EXPECT_FALSE(f.matches(json{{"domain", 3}, {"source", "dds"}}));
+}
+
+TEST(ApiFilter, UnknownKeyIsAnErrorUnlessAllowed) {
+  DeviceFilter f;
+  auto err = parse_device_filter({{"domian", "1"}}, f);
+  ASSERT_TRUE(err);
+  EXPECT_NE(err->find("domian"), std::string::npos);
+  DeviceFilter g;
+  EXPECT_FALSE(parse_device_filter({{"since", "5"}}, g, {"since"}));
+}
+
+TEST(ApiParse, Generation) {
+  EXPECT_EQ(parse_generation("0"), 0u);
+  EXPECT_EQ(parse_generation("18446744073709551615"), UINT64_MAX);
+  EXPECT_FALSE(parse_generation("18446744073709551616"));
+  EXPECT_FALSE(parse_generation(""));
+  EXPECT_FALSE(parse_generation("-1"));
+  EXPECT_FALSE(parse_generation("12 "));
+  EXPECT_FALSE(parse_generation("abc"));
+}
+
+TEST(ApiSse, MessageFraming) {
+  EXPECT_EQ(sse_message("added", 7, R"({"id":"a"})"), "event: added\nid: 7\ndata: {\"id\":\"a\"}\n\n");
+  EXPECT_EQ(sse_message("", std::nullopt, "x"), "data: x\n\n");
+  // A line break inside data must not end the event early or forge a field.
+  EXPECT_EQ(sse_message("m", 1, "a\nevent: evil\r\nb\rc"),
+            "event: m\nid: 1\ndata: a\ndata: event: evil\ndata: b\ndata: c\n\n");
+  EXPECT_EQ(sse_message("m", 1, ""), "event: m\nid: 1\ndata: \n\n");
+}
+
+TEST(ApiSse, CommentIsOneLine) {
+  EXPECT_EQ(sse_comment("keep-alive"), ": keep-alive\n\n");
+  EXPECT_EQ(sse_comment("a\nb"), ": a b\n\n");
+}
+
+TEST(ApiJson, DumpIsOneLineAndSurvivesBadUtf8) {
+  json doc = {{"name", std::string("bad \xff utf8")}, {"nl", "a\nb"}};
+  std::string out;
+  ASSERT_NO_THROW(out = dump(doc));
+  EXPECT_EQ(out.find('\n'), std::string::npos);
+  EXPECT_TRUE(json::accept(out));
+}
+
+TEST(ApiJson, ErrorBody) {
+  auto body = json::parse(error_body(404, "no device with id 'x'"));
+  EXPECT_EQ(body["status"], 404);
+  EXPECT_EQ(body["error"], "no device with id 'x'");
+}
+
+TEST(ApiJson, DomainStatus) {
+  rsd::DomainStatus s;
+  s.domain = 5;
+  s.state = "running";
+  s.participant_guid = "01.02";
+  s.devices = 2;
+  s.accepted = 10;
+  s.rejected = {{"not-json", 3}};
+  auto j = domain_status_json(s);
+  EXPECT_EQ(j["domain"], 5);
+  EXPECT_EQ(j["participant-guid"], "01.02");
+  EXPECT_EQ(j["rejected"]["not-json"], 3);
+  EXPECT_TRUE(domain_status_json(rsd::DomainStatus{})["rejected"].is_object());
+}
+
+TEST(ApiMetrics, LabelEscaping) {
+  EXPECT_EQ(prometheus_label_value("a\"b\\c\nd"), "a\\\"b\\\\c\\nd");
+}
+
+TEST(ApiMetrics, Exposition) {
+  MetricsInput in;
+  in.version = "1.2.3";
+  rsd::DomainStatus d0;
+  d0.domain = 0;
+  d0.state = "running";
+  d0.accepted = 4;
+  d0.rejected = {{"bad-cbor", 2}, {"not-json", 1}};
+  rsd::DomainStatus d9;
+  d9.domain = 9;
+  d9.state = "failed";
+  in.domains = {d0, d9};
+  in.devices_per_domain = {{0, 3}};
+  in.devices_total = 3;
+  in.events_sent = 11;
+  in.requests_by_status = {{200, 5}, {404, 1}};
+  const std::string text = render_metrics(in);
+  for (const char* line :
+       {"rsd_devices{domain=\"0\"} 3\n", "rsd_devices{domain=\"9\"} 0\n", "rsd_messages_accepted_total{domain=\"0\"} 4\n",
+        "rsd_messages_rejected_total{domain=\"0\",reason=\"bad-cbor\"} 2\n", "rsd_events_sent_total 11\n",
+        "rsd_api_requests_total{status=\"404\"} 1\n", "rsd_domain_up{domain=\"9\",state=\"failed\"} 0\n",
+        "# TYPE rsd_messages_rejected_total counter\n", "# TYPE rsd_devices gauge\n",
+        "rsd_build_info{version=\"1.2.3\"} 1\n"})
+    EXPECT_NE(text.find(line), std::string::npos) << line << "\nin:\n" << text;
+  // Every sample's family is declared before it, once.
+  std::set<std::string> declared;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("# TYPE ", 0) == 0) {
+      auto name = line.substr(7, line.find(' ', 7) - 7);
+      EXPECT_TRUE(declared.insert(name).second) << name;
+    } else if (line.rfind("#", 0) != 0) {
+      auto name = line.substr(0, line.find_first_of("{ "));
+      EXPECT_TRUE(declared.contains(name)) << line;
+    }
+  }
+}
+
+namespace {
+std::string temp_socket_path(const char* tag) {
+  return (std::filesystem::temp_directory_path() / ("rsd-api-test-" + std::to_string(getpid()) + "-" + tag)).string();
+}
+int bind_unix(const std::string& path, bool listen_too) {
+  int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un a{};
+  a.sun_family = AF_UNIX;
+  std::snprintf(a.sun_path, sizeof a.sun_path, "%s", path.c_str());
+  if (bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) return -1;
+  if (listen_too) listen(fd, 1);
+  return fd;
+}
+}  // namespace
+
+TEST(ApiSocketPath, MissingIsFine) {
+  const auto path = temp_socket_path("missing");
+  std::filesystem::remove(path);
+  EXPECT_NO_THROW(prepare_unix_socket_path(path));
+}
+
+TEST(ApiSocketPath, StaleSocketIsReplaced) {
+  const auto path = temp_socket_path("stale");
+  std::filesystem::remove(path);
+  int fd = bind_unix(path, false);  // bound but never listening: what a crash leaves behind
+  ASSERT_GE(fd, 0);
+  close(fd);
+  ASSERT_TRUE(std::filesystem::exists(path));
+  EXPECT_NO_THROW(prepare_unix_socket_path(path));
+  EXPECT_FALSE(std::filesystem::exists(path));
+}
+
+TEST(ApiSocketPath, LiveSocketIsRefused) {
+  const auto path = temp_socket_path("live");
+  std::filesystem::remove(path);
+  int fd = bind_unix(path, true);
+  ASSERT_GE(fd, 0);
+  try {
+    prepare_unix_socket_path(path);
+    ADD_FAILURE() << "a live socket was taken over";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("already running"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(std::filesystem::exists(path));
+  close(fd);
+  std::filesystem::remove(path);
+}
+
+TEST(ApiSocketPath, RegularFileIsLeftAlone) {
+  const auto path = temp_socket_path("file");
+  { std::ofstream(path) << "not a socket"; }
+  EXPECT_THROW(prepare_unix_socket_path(path), std::runtime_error);
+  EXPECT_TRUE(std::filesystem::exists(path));
+  std::filesystem::remove(path);
+  EXPECT_THROW(prepare_unix_socket_path(std::string(200, 'x')), std::runtime_error);
+}
