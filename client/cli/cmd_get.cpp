@@ -1,0 +1,91 @@
+// rs-discover get: one device, by id (or, failing that, by serial or topic-root).
+#include "common.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <set>
+
+namespace rsdiscover {
+namespace {
+
+void row(const char* key, const std::string& value) {
+  if (value.empty()) return;
+  std::printf("%-14s%s\n", (std::string(key) + ":").c_str(), value.c_str());
+}
+
+int run(const ParsedArgs& args) {
+  if (args.positional.size() != 1) throw UsageError("give exactly one device ID");
+  const std::string& key = args.positional[0];
+  auto client = make_client(args);
+  auto device = client.find_device(key);
+  if (!device) {
+    std::vector<rsdiscovery::Device> hits;
+    for (auto& d : client.list_devices())
+      if (d.serial == key || d.topic_root == key) hits.push_back(std::move(d));
+    if (hits.size() > 1) {
+      std::string ids;
+      for (const auto& d : hits) ids += "\n  " + d.id;
+      std::fprintf(stderr, "rs-discover: %zu devices match '%s'; name one by its id:%s\n", hits.size(),
+                   key.c_str(), ids.c_str());
+      return kNotFound;
+    }
+    if (hits.empty()) {
+      std::fprintf(stderr, "rs-discover: no device '%s' (ids are listed by 'rs-discover list -q')\n",
+                   key.c_str());
+      return kNotFound;
+    }
+    device = std::move(hits[0]);
+  }
+  const auto& d = *device;
+  auto doc = nlohmann::json::parse(d.json);
+  if (args.has("json")) {
+    std::printf("%s\n", doc.dump(output().color ? 2 : -1).c_str());
+    return kOk;
+  }
+  row("ID", d.id);
+  row("Name", d.name);
+  row("Serial", d.serial);
+  row("Source", device_sources(d));
+  if (d.domain) row("Domain", std::to_string(*d.domain));
+  row("Topic root", d.topic_root);
+  row("Product line", d.product_line);
+  row("Product id", d.product_id);
+  row("Firmware", d.fw_version);
+  std::string state = device_state(d);
+  row("State", paint(state, state_color(state)));
+  row("Warning", d.warning);
+  if (d.server) {
+    row("Address", device_addresses(d));
+    row("Server", d.server->participant_name);
+    row("Server GUID", d.server->participant_guid);
+  }
+  if (d.usb) {
+    row("USB port", d.usb->port_path);
+    if (d.usb->bus) row("USB bus", std::to_string(*d.usb->bus));
+    row("USB speed", d.usb->speed);
+  }
+  if (!d.first_seen.empty()) row("First seen", d.first_seen + " (" + age_since(d.first_seen) + " ago)");
+  if (!d.last_seen.empty()) row("Last seen", d.last_seen + " (" + age_since(d.last_seen) + " ago)");
+  static const std::set<std::string> shown = {
+      "id", "name", "serial", "source", "sources", "domain", "topic-root", "product-line", "product-id",
+      "fw-version", "recovery", "warning", "server", "usb", "first-seen", "last-seen"};
+  for (const auto& [k, v] : doc.items())
+    if (!shown.count(k)) row(k.c_str(), v.is_string() ? v.get<std::string>() : v.dump());
+  return kOk;
+}
+
+}  // namespace
+
+const Command kGetCommand = {
+    "get",
+    "show one camera",
+    "get [--json] ID",
+    "Show one camera: every field the daemon has for it. ID is the id that 'rs-discover list -q'\n"
+    "prints; a serial number or a topic-root that names one camera only works too.",
+    {
+        {"json", 0, nullptr, "print the device's JSON document"},
+    },
+    run,
+};
+
+}  // namespace rsdiscover

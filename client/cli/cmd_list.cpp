@@ -1,0 +1,89 @@
+// rs-discover list: the devices the daemon knows now, as a table or JSON.
+#include "common.hpp"
+
+#include <chrono>
+
+namespace rsdiscover {
+namespace {
+
+int run(const ParsedArgs& args) {
+  if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
+  auto filter = filter_from(args);
+  int wait = args.get_int("wait", 0, 0, 100000);
+  double timeout = args.get_seconds("timeout", 10);
+  if (args.has("timeout") && !args.has("wait")) throw UsageError("--timeout goes with --wait");
+  auto client = make_client(args);
+
+  std::vector<rsdiscovery::Device> devices;
+  if (wait > 0) {
+    auto ms = std::chrono::milliseconds(static_cast<long long>(timeout * 1000));
+    auto got = client.wait_until(
+        filter, [wait](const std::vector<rsdiscovery::Device>& v) { return v.size() >= static_cast<std::size_t>(wait); }, ms);
+    if (!got) {
+      auto now = client.list_devices(filter);
+      std::fprintf(stderr, "rs-discover: timed out after %gs waiting for %d device%s (%zu present)\n", timeout,
+                   wait, wait == 1 ? "" : "s", now.size());
+      return kNotFound;
+    }
+    devices = std::move(*got);
+  } else {
+    devices = client.list_devices(filter);
+  }
+
+  if (args.has("json")) {
+    std::string out = "{\"devices\":[";
+    for (std::size_t i = 0; i < devices.size(); ++i) {
+      if (i) out += ',';
+      out += devices[i].json;
+    }
+    out += "]}\n";
+    std::fputs(out.c_str(), stdout);
+    return kOk;
+  }
+  if (args.has("quiet")) {
+    for (const auto& d : devices) std::printf("%s\n", d.id.c_str());
+    return kOk;
+  }
+  bool wide = args.has("wide");
+  std::vector<std::string> headers = {"NAME", "SERIAL", "SOURCE", "DOMAIN/PORT", "ADDRESS", "STATE", "AGE"};
+  if (wide) headers.insert(headers.end(), {"PRODUCT-ID", "FW", "ID"});
+  Table table(headers);
+  for (const auto& d : devices) {
+    std::string state = device_state(d);
+    std::vector<std::string> cells = {d.name.empty() ? "-" : d.name, d.serial.empty() ? "-" : d.serial,
+                                      device_sources(d), device_location(d), device_addresses(d), state,
+                                      age_since(d.first_seen)};
+    if (wide)
+      cells.insert(cells.end(), {d.product_id.empty() ? "-" : d.product_id,
+                                 d.fw_version.empty() ? "-" : d.fw_version, d.id});
+    std::vector<const char*> colors(cells.size(), nullptr);
+    colors[5] = state_color(state);
+    table.add(std::move(cells), std::move(colors));
+  }
+  table.print(stdout);
+  return kOk;
+}
+
+}  // namespace
+
+const Command kListCommand = {
+    "list",
+    "list the cameras the daemon knows now",
+    "list [--json | -q | -w] [--domain N] [--product-line LINE] [--source dds|usb] [--wait N [--timeout S]]",
+    "List the cameras rs-discoveryd knows now: one line each, with where it is (DDS domain or\n"
+    "USB port), its network address and how long it has been seen. With --wait, first wait\n"
+    "until at least N cameras (that match the filters) are present.",
+    {
+        {"domain", 0, "N", "only devices on DDS domain N"},
+        {"product-line", 0, "LINE", "only devices of this product line (D400, D500, ...)"},
+        {"source", 0, "SOURCE", "only devices seen this way: dds or usb"},
+        {"json", 0, nullptr, "print JSON as the API gives it: {\"devices\": [...]}"},
+        {"quiet", 'q', nullptr, "print only the device ids, one a line"},
+        {"wide", 'w', nullptr, "add the PRODUCT-ID, FW and ID columns"},
+        {"wait", 0, "N", "wait until at least N matching devices are present"},
+        {"timeout", 0, "S", "give up waiting after S seconds (default 10; exit status 1)"},
+    },
+    run,
+};
+
+}  // namespace rsdiscover

@@ -1,0 +1,157 @@
+// rs-discover watch: one line per change of the device table, until interrupted.
+#include "common.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <pthread.h>
+#include <signal.h>
+#include <sys/time.h>
+
+#include <atomic>
+#include <chrono>
+#include <ctime>
+#include <thread>
+
+namespace rsdiscover {
+namespace {
+
+const char* event_color(rsdiscovery::Event::Type t) {
+  switch (t) {
+    case rsdiscovery::Event::Type::added: return color::green;
+    case rsdiscovery::Event::Type::changed: return color::yellow;
+    case rsdiscovery::Event::Type::removed: return color::red;
+  }
+  return nullptr;
+}
+
+std::string clock_now() {
+  timeval tv{};
+  gettimeofday(&tv, nullptr);
+  std::tm tm{};
+  localtime_r(&tv.tv_sec, &tm);
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%02d:%02d:%02d.%03d", tm.tm_hour, tm.tm_min, tm.tm_sec,
+                static_cast<int>(tv.tv_usec / 1000));
+  return buf;
+}
+
+void print_event(const rsdiscovery::Event& e, bool json) {
+  const auto& d = e.device;
+  std::string line;
+  if (json) {
+    nlohmann::json out = {{"event", rsdiscovery::to_string(e.type)},
+                          {"id", e.id},
+                          {"synthetic", e.synthetic},
+                          {"device", nlohmann::json::parse(d.json)}};
+    line = out.dump();
+  } else {
+    char type[16];
+    std::snprintf(type, sizeof type, "%-7s", rsdiscovery::to_string(e.type));
+    line = paint(clock_now(), color::dim) + " " + paint(type, event_color(e.type)) + " " + d.id + "  " +
+           (d.name.empty() ? "-" : d.name);
+    if (!d.serial.empty()) line += "  serial " + d.serial;
+    if (d.domain) line += "  domain " + std::to_string(*d.domain);
+    if (d.usb && !d.usb->port_path.empty()) line += "  usb " + d.usb->port_path;
+    if (d.server && !d.server->addresses.empty()) line += "  " + device_addresses(d);
+    if (d.recovery) line += "  " + paint("(recovery)", color::yellow);
+    if (e.synthetic) line += "  " + paint("(re-listed)", color::dim);
+  }
+  line += '\n';
+  std::fputs(line.c_str(), stdout);
+  std::fflush(stdout);
+}
+
+int run(const ParsedArgs& args) {
+  if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
+  rsdiscovery::WatchOptions options;
+  options.filter = filter_from(args);
+  options.initial = args.has("initial");
+  if (args.has("last-event-id")) {
+    const std::string text = args.get("last-event-id");
+    char* end = nullptr;
+    unsigned long long v = std::strtoull(text.c_str(), &end, 10);
+    if (text.empty() || *end) throw UsageError("--last-event-id wants a number, not '" + text + "'");
+    options.last_event_id = v;
+  }
+  int count = args.get_int("count", 0, 0, 1000000000);
+  bool has_timeout = args.has("timeout");
+  double timeout = args.get_seconds("timeout", 0);
+  bool json = args.has("json");
+
+  // SIGINT/SIGTERM end the watch cleanly: a thread of ours takes them.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  auto client = make_client(args);
+  rsdiscovery::Watch watch = client.watch(options);
+  std::atomic<bool> interrupted{false}, finishing{false};
+  std::thread signals([&] {
+    int sig = 0;
+    sigwait(&stop_signals, &sig);
+    if (finishing) return;  // our own wake-up at the end
+    interrupted = true;
+    watch.stop();
+  });
+  struct Join {
+    std::thread& t;
+    std::atomic<bool>& finishing;
+    ~Join() {
+      finishing = true;
+      pthread_kill(t.native_handle(), SIGTERM);
+      t.join();
+    }
+  } join{signals, finishing};
+
+  auto deadline = std::chrono::steady_clock::now() +
+                  std::chrono::milliseconds(static_cast<long long>(timeout * 1000));
+  int seen = 0;
+  while (count == 0 || seen < count) {
+    std::optional<rsdiscovery::Event> e;
+    if (has_timeout) {
+      auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+      if (left.count() <= 0) break;
+      e = watch.next(left);
+      if (!e && !watch.stopped()) continue;  // timed out: the loop ends above
+    } else {
+      e = watch.next();
+    }
+    if (!e) break;  // stopped
+    print_event(*e, json);
+    ++seen;
+  }
+  watch.stop();
+  if (interrupted) return kOk;
+  if (count > 0 && seen < count) {
+    std::fprintf(stderr, "rs-discover: timed out after %gs with %d of %d events\n", timeout, seen, count);
+    return kNotFound;
+  }
+  return kOk;
+}
+
+}  // namespace
+
+const Command kWatchCommand = {
+    "watch",
+    "print the changes as they happen",
+    "watch [--json] [--initial] [--domain N] [--product-line LINE] [--source dds|usb] [--count N] [--timeout S]",
+    "Print one line per change of the device table (added, changed, removed) until interrupted.\n"
+    "The stream resumes by itself when the daemon restarts; what changed meanwhile is\n"
+    "reported too (marked as re-listed).",
+    {
+        {"json", 0, nullptr,
+         "one JSON object a line: {\"event\", \"id\", \"synthetic\", \"device\"}"},
+        {"initial", 0, nullptr, "first report every device present now as added"},
+        {"domain", 0, "N", "only devices on DDS domain N"},
+        {"product-line", 0, "LINE", "only devices of this product line (D400, D500, ...)"},
+        {"source", 0, "SOURCE", "only devices seen this way: dds or usb"},
+        {"count", 0, "N", "exit after N events"},
+        {"timeout", 0, "S", "exit after S seconds (status 1 if --count events did not come)"},
+        {"last-event-id", 0, "ID", "resume after this event id (from an earlier --json run)"},
+    },
+    run,
+};
+
+}  // namespace rsdiscover

@@ -1,0 +1,304 @@
+// The shared part of rs-discover: option parsing, errors, tables, colour, times.
+#include "common.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+
+namespace rsdiscover {
+
+using rsdiscovery::ErrorCode;
+
+const std::vector<OptionSpec> kCommonOptions = {
+    {"endpoint", 0, "ENDPOINT",
+     "the daemon: unix:/path/to/socket or http://host:port (default: $RS_DISCOVERY_ENDPOINT, "
+     "else the daemon's default socket)"},
+    {"color", 0, "WHEN", "colour the output: auto (on a terminal), always, never"},
+    {"help", 'h', nullptr, "show this help and exit"},
+};
+
+Output& output() {
+  static Output o;
+  return o;
+}
+
+std::string ParsedArgs::get(const std::string& name, const std::string& fallback) const {
+  auto it = values.find(name);
+  return it == values.end() ? fallback : it->second;
+}
+
+int ParsedArgs::get_int(const std::string& name, int fallback, int min, int max) const {
+  auto it = values.find(name);
+  if (it == values.end()) return fallback;
+  const std::string& text = it->second;
+  char* end = nullptr;
+  errno = 0;
+  long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end || errno || v < min || v > max)
+    throw UsageError("--" + name + " wants a whole number from " + std::to_string(min) + " to " +
+                     std::to_string(max) + ", not '" + text + "'");
+  return static_cast<int>(v);
+}
+
+double ParsedArgs::get_seconds(const std::string& name, double fallback) const {
+  auto it = values.find(name);
+  if (it == values.end()) return fallback;
+  const std::string& text = it->second;
+  char* end = nullptr;
+  double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end || !std::isfinite(v) || v < 0 || v > 1e7)
+    throw UsageError("--" + name + " wants seconds (a number >= 0), not '" + text + "'");
+  return v;
+}
+
+ParsedArgs parse_args(const std::vector<std::string>& args, const std::vector<OptionSpec>& specs) {
+  ParsedArgs out;
+  auto find = [&](const std::string& name, char short_name) -> const OptionSpec* {
+    for (const auto* list : {&specs, &kCommonOptions})
+      for (const auto& s : *list)
+        if (short_name ? s.short_name == short_name : name == s.name) return &s;
+    return nullptr;
+  };
+  bool only_positional = false;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (only_positional || a.size() < 2 || a[0] != '-') {
+      out.positional.push_back(a);
+      continue;
+    }
+    if (a == "--") {
+      only_positional = true;
+      continue;
+    }
+    const OptionSpec* spec = nullptr;
+    std::optional<std::string> inline_value;
+    std::string shown = a;
+    if (a[1] == '-') {
+      std::string name = a.substr(2);
+      if (auto eq = name.find('='); eq != std::string::npos) {
+        inline_value = name.substr(eq + 1);
+        name.resize(eq);
+        shown = "--" + name;
+      }
+      spec = find(name, 0);
+    } else {
+      if (a.size() != 2) throw UsageError("unknown option '" + a + "' (write short options apart)");
+      spec = find("", a[1]);
+    }
+    if (!spec) throw UsageError("unknown option '" + shown + "'");
+    if (!spec->value) {
+      if (inline_value) throw UsageError("--" + std::string(spec->name) + " takes no value");
+      out.values[spec->name] = "1";
+      continue;
+    }
+    if (inline_value) {
+      out.values[spec->name] = *inline_value;
+    } else {
+      if (i + 1 >= args.size()) throw UsageError(shown + " needs a value (" + spec->value + ")");
+      out.values[spec->name] = args[++i];
+    }
+  }
+  std::string when = out.get("color", "auto");
+  if (when == "always") {
+    output().color = true;
+  } else if (when == "never") {
+    output().color = false;
+  } else if (when == "auto") {
+    const char* no_color = std::getenv("NO_COLOR");
+    const char* term = std::getenv("TERM");
+    output().color = isatty(STDOUT_FILENO) && !(no_color && *no_color) &&
+                     !(term && std::strcmp(term, "dumb") == 0);
+  } else {
+    throw UsageError("--color wants auto, always or never, not '" + when + "'");
+  }
+  return out;
+}
+
+void print_help(const Command& c, std::FILE* out) {
+  std::fprintf(out, "Usage: rs-discover %s\n\n%s\n\nOptions:\n", c.usage, c.description);
+  auto show = [&](const std::vector<OptionSpec>& list) {
+    for (const auto& s : list) {
+      std::string left = s.short_name ? std::string("-") + s.short_name + ", " : "    ";
+      left += "--" + std::string(s.name);
+      if (s.value) left += " " + std::string(s.value);
+      if (left.size() < 26)
+        std::fprintf(out, "  %-26s%s\n", left.c_str(), s.help);
+      else
+        std::fprintf(out, "  %s\n  %-26s%s\n", left.c_str(), "", s.help);
+    }
+  };
+  show(c.options);
+  show(kCommonOptions);
+  std::fputs("\nExit status: 0 ok, 1 not found or timed out, 2 usage error, 3 daemon unreachable,\n"
+             "4 the daemon's answer was not understood (version mismatch, malformed reply).\n",
+             out);
+}
+
+rsdiscovery::Client make_client(const ParsedArgs& args) {
+  rsdiscovery::ClientOptions options;
+  return rsdiscovery::Client(args.get("endpoint"), options);
+}
+
+rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args) {
+  rsdiscovery::DeviceFilter f;
+  if (args.has("domain")) f.domain = args.get_int("domain", 0, 0, 232);
+  f.product_line = args.get("product-line");
+  f.source = args.get("source");
+  if (!f.source.empty() && f.source != "dds" && f.source != "usb")
+    throw UsageError("--source wants dds or usb, not '" + f.source + "'");
+  return f;
+}
+
+int report(const rsdiscovery::Error& e) {
+  std::fprintf(stderr, "rs-discover: %s\n", e.what());
+  switch (e.code()) {
+    case ErrorCode::not_found:
+    case ErrorCode::timeout:
+      return kNotFound;
+    case ErrorCode::bad_endpoint:
+      return kUsage;
+    case ErrorCode::not_running:
+    case ErrorCode::permission_denied:
+    case ErrorCode::cancelled:
+      return kUnreachable;
+    case ErrorCode::malformed_reply:
+    case ErrorCode::version_mismatch:
+    case ErrorCode::http_error:
+      return kBadReply;
+  }
+  return kBadReply;
+}
+
+namespace color {
+const char* const bold = "\033[1m";
+const char* const green = "\033[32m";
+const char* const yellow = "\033[33m";
+const char* const red = "\033[31m";
+const char* const dim = "\033[2m";
+}  // namespace color
+
+std::string paint(const std::string& text, const char* code) {
+  if (!output().color || !code) return text;
+  return code + text + "\033[0m";
+}
+
+std::string join(const std::vector<std::string>& parts, const std::string& sep) {
+  std::string out;
+  for (const auto& p : parts) {
+    if (!out.empty()) out += sep;
+    out += p;
+  }
+  return out;
+}
+
+std::string device_state(const rsdiscovery::Device& d) {
+  if (d.recovery) return "recovery";
+  if (!d.warning.empty()) return "warning";
+  return "ok";
+}
+
+const char* state_color(const std::string& state) {
+  if (state == "ok") return color::green;
+  if (state == "recovery") return color::yellow;
+  return color::red;
+}
+
+std::string device_location(const rsdiscovery::Device& d) {
+  std::vector<std::string> parts;
+  if (d.domain) parts.push_back(std::to_string(*d.domain));
+  if (d.usb) {
+    std::string port = d.usb->port_path;
+    if (port.empty() && d.usb->bus) port = "bus " + std::to_string(*d.usb->bus);
+    parts.push_back("usb " + (port.empty() ? std::string("?") : port));
+  }
+  return parts.empty() ? "-" : join(parts, ", ");
+}
+
+std::string device_addresses(const rsdiscovery::Device& d) {
+  if (!d.server || d.server->addresses.empty()) return "-";
+  return join(d.server->addresses, ",");
+}
+
+std::string device_sources(const rsdiscovery::Device& d) {
+  if (d.sources.size() > 1) return join(d.sources, "+");
+  return d.source.empty() ? "-" : d.source;
+}
+
+std::optional<double> parse_iso8601(const std::string& text) {
+  int y, mo, d, h, mi;
+  double s;
+  char tail[8] = {0};
+  if (std::sscanf(text.c_str(), "%4d-%2d-%2dT%2d:%2d:%lf%7s", &y, &mo, &d, &h, &mi, &s, tail) < 6)
+    return std::nullopt;
+  std::tm tm{};
+  tm.tm_year = y - 1900;
+  tm.tm_mon = mo - 1;
+  tm.tm_mday = d;
+  tm.tm_hour = h;
+  tm.tm_min = mi;
+  time_t whole = timegm(&tm);
+  if (whole == static_cast<time_t>(-1)) return std::nullopt;
+  double offset = 0;  // "Z" or none: UTC; "+02:00" style offsets too
+  if (tail[0] == '+' || tail[0] == '-') {
+    int oh = 0, om = 0;
+    if (std::sscanf(tail + 1, "%2d:%2d", &oh, &om) >= 1) offset = (oh * 3600 + om * 60) * (tail[0] == '+' ? 1 : -1);
+  }
+  return static_cast<double>(whole) + s - offset;
+}
+
+std::string age_since(const std::string& iso8601) {
+  auto then = parse_iso8601(iso8601);
+  if (!then) return "-";
+  timespec now{};
+  clock_gettime(CLOCK_REALTIME, &now);
+  double secs = static_cast<double>(now.tv_sec) + static_cast<double>(now.tv_nsec) / 1e9 - *then;
+  if (secs < 0) secs = 0;
+  auto n = static_cast<long long>(secs);
+  if (n < 60) return std::to_string(n) + "s";
+  if (n < 3600) return std::to_string(n / 60) + "m";
+  if (n < 86400) return std::to_string(n / 3600) + "h";
+  return std::to_string(n / 86400) + "d";
+}
+
+void Table::add(std::vector<std::string> cells, std::vector<const char*> colors) {
+  cells.resize(headers_.size());
+  colors.resize(headers_.size(), nullptr);
+  rows_.push_back(std::move(cells));
+  colors_.push_back(std::move(colors));
+}
+
+namespace {
+// Display width of UTF-8 text: one column per code point (device names are ASCII
+// in practice; this keeps any other text from breaking the alignment badly).
+std::size_t width(const std::string& s) {
+  std::size_t n = 0;
+  for (unsigned char c : s) n += (c & 0xC0) != 0x80;
+  return n;
+}
+}  // namespace
+
+void Table::print(std::FILE* out) const {
+  std::vector<std::size_t> w(headers_.size());
+  for (std::size_t i = 0; i < headers_.size(); ++i) w[i] = width(headers_[i]);
+  for (const auto& row : rows_)
+    for (std::size_t i = 0; i < row.size(); ++i) w[i] = std::max(w[i], width(row[i]));
+  auto line = [&](const std::vector<std::string>& cells, const std::vector<const char*>* colors,
+                  const char* all) {
+    std::string text;
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+      bool last = i + 1 == cells.size();
+      const char* code = colors ? (*colors)[i] : all;
+      text += paint(cells[i], code);
+      if (!last) text.append(w[i] - width(cells[i]) + 2, ' ');
+    }
+    text += '\n';
+    std::fputs(text.c_str(), out);
+  };
+  line(headers_, nullptr, color::bold);
+  for (std::size_t r = 0; r < rows_.size(); ++r) line(rows_[r], &colors_[r], nullptr);
+}
+
+}  // namespace rsdiscover

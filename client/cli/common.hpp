@@ -1,0 +1,115 @@
+// What every rs-discover subcommand shares: option parsing, the client, errors and
+// exit codes, tables and colour. One subcommand per cmd_*.cpp file.
+#pragma once
+
+#include <rsdiscovery/rsdiscovery.hpp>
+
+#include <cstdio>
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace rsdiscover {
+
+// Exit codes (documented in --help and rs-discover.1).
+enum Exit : int {
+  kOk = 0,
+  kNotFound = 1,     // no such device, or a wait/timeout ran out
+  kUsage = 2,        // bad command line
+  kUnreachable = 3,  // the daemon is not running or may not be reached
+  kBadReply = 4,     // the daemon answered something this client does not understand
+};
+
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct OptionSpec {
+  const char* name;   // long name without "--"
+  char short_name;    // 0: none
+  const char* value;  // nullptr: a flag; else the value's name in help
+  const char* help;
+};
+
+// Options every subcommand takes.
+extern const std::vector<OptionSpec> kCommonOptions;
+
+struct ParsedArgs {
+  std::map<std::string, std::string> values;  // flags map to "1"
+  std::vector<std::string> positional;
+  bool has(const std::string& name) const { return values.count(name) > 0; }
+  std::string get(const std::string& name, const std::string& fallback = "") const;
+  int get_int(const std::string& name, int fallback, int min, int max) const;
+  double get_seconds(const std::string& name, double fallback) const;
+};
+
+// Parses `args` (after the subcommand's name) against `specs` plus the common ones.
+ParsedArgs parse_args(const std::vector<std::string>& args, const std::vector<OptionSpec>& specs);
+
+struct Command {
+  const char* name;
+  const char* summary;
+  const char* usage;        // the line after "Usage: rs-discover "
+  const char* description;  // a paragraph
+  std::vector<OptionSpec> options;
+  int (*run)(const ParsedArgs& args);
+};
+
+void print_help(const Command& command, std::FILE* out);
+
+// Output context, set from the common options.
+struct Output {
+  bool color = false;
+};
+Output& output();
+
+rsdiscovery::Client make_client(const ParsedArgs& args);
+rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args);
+
+// Prints "rs-discover: message" for an error and returns the exit code it maps to.
+int report(const rsdiscovery::Error& error);
+
+// ---- presentation ----------------------------------------------------------------------
+namespace color {
+extern const char* const bold;
+extern const char* const green;
+extern const char* const yellow;
+extern const char* const red;
+extern const char* const dim;
+}  // namespace color
+std::string paint(const std::string& text, const char* code);  // no-op without colour
+
+std::string join(const std::vector<std::string>& parts, const std::string& sep);
+std::string device_state(const rsdiscovery::Device& d);  // ok, recovery, warning
+const char* state_color(const std::string& state);
+std::string device_location(const rsdiscovery::Device& d);  // domain or USB port
+std::string device_addresses(const rsdiscovery::Device& d);
+std::string device_sources(const rsdiscovery::Device& d);
+// "5s", "3m", "2h", "4d" since an ISO 8601 UTC time; "-" when unreadable.
+std::string age_since(const std::string& iso8601);
+std::optional<double> parse_iso8601(const std::string& text);  // Unix seconds
+
+// A table like `docker ps`: columns padded to their widest cell, two spaces apart.
+class Table {
+ public:
+  explicit Table(std::vector<std::string> headers) : headers_(std::move(headers)) {}
+  // colors: optional per cell colour codes (same length as cells, nullptr: none)
+  void add(std::vector<std::string> cells, std::vector<const char*> colors = {});
+  void print(std::FILE* out) const;
+
+ private:
+  std::vector<std::string> headers_;
+  std::vector<std::vector<std::string>> rows_;
+  std::vector<std::vector<const char*>> colors_;
+};
+
+// The subcommands, one per cmd_*.cpp file.
+extern const Command kListCommand;
+extern const Command kGetCommand;
+extern const Command kWatchCommand;
+extern const Command kDomainsCommand;
+extern const Command kHealthCommand;
+
+}  // namespace rsdiscover

@@ -1,0 +1,98 @@
+// rs-discover: ask rs-discoveryd which RealSense cameras are around.
+// This file only dispatches; each subcommand is its own cmd_*.cpp.
+#include "common.hpp"
+
+#include <cstring>
+
+namespace {
+
+using namespace rsdiscover;
+
+const Command* const kCommands[] = {&kListCommand, &kGetCommand, &kWatchCommand, &kDomainsCommand,
+                                    &kHealthCommand};
+
+void usage(std::FILE* out) {
+  std::fputs(
+      "Usage: rs-discover [--endpoint ENDPOINT] COMMAND [options]\n\n"
+      "Ask rs-discoveryd, the RealSense discovery daemon, which cameras are around\n"
+      "(over DDS and USB), without waiting for discovery yourself.\n\nCommands:\n",
+      out);
+  for (const Command* c : kCommands) std::fprintf(out, "  %-9s %s\n", c->name, c->summary);
+  std::fputs(
+      "\nRun 'rs-discover COMMAND --help' for a command's options.\n"
+      "The daemon is reached at --endpoint, else $RS_DISCOVERY_ENDPOINT, else its default\n"
+      "socket ($RUNTIME_DIRECTORY/api.sock, /run/rs-discoveryd/api.sock as root,\n"
+      "$XDG_RUNTIME_DIR/rs-discoveryd.sock otherwise).\n"
+      "\nExit status: 0 ok, 1 not found or timed out, 2 usage error, 3 daemon unreachable,\n"
+      "4 the daemon's answer was not understood (version mismatch, malformed reply).\n",
+      out);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  // Common options may come before the command: move them after it.
+  std::vector<std::string> leading;
+  while (!args.empty() && args[0].size() > 1 && args[0][0] == '-') {
+    const std::string a = args[0];
+    if (a == "-h" || a == "--help") {
+      usage(stdout);
+      return kOk;
+    }
+    if (a == "--version") {
+      std::printf("rs-discover %s\n", rsdiscovery::version());
+      return kOk;
+    }
+    leading.push_back(a);
+    args.erase(args.begin());
+    bool needs_value = (a == "--endpoint" || a == "--color");
+    if (needs_value) {
+      if (args.empty()) {
+        std::fprintf(stderr, "rs-discover: %s needs a value\n", a.c_str());
+        return kUsage;
+      }
+      leading.push_back(args[0]);
+      args.erase(args.begin());
+    }
+  }
+  if (args.empty()) {
+    usage(stderr);
+    return kUsage;
+  }
+  std::string name = args[0];
+  args.erase(args.begin());
+  if (name == "help") {
+    if (args.empty()) {
+      usage(stdout);
+      return kOk;
+    }
+    name = args[0];
+    args = {"--help"};
+  }
+  const Command* command = nullptr;
+  for (const Command* c : kCommands)
+    if (name == c->name) command = c;
+  if (!command) {
+    std::fprintf(stderr, "rs-discover: unknown command '%s' (try 'rs-discover --help')\n", name.c_str());
+    return kUsage;
+  }
+  args.insert(args.end(), leading.begin(), leading.end());
+  try {
+    ParsedArgs parsed = parse_args(args, command->options);
+    if (parsed.has("help")) {
+      print_help(*command, stdout);
+      return kOk;
+    }
+    return command->run(parsed);
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "rs-discover %s: %s\nTry 'rs-discover %s --help'.\n", command->name, e.what(),
+                 command->name);
+    return kUsage;
+  } catch (const rsdiscovery::Error& e) {
+    return report(e);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rs-discover: %s\n", e.what());
+    return kBadReply;
+  }
+}

@@ -1,0 +1,324 @@
+// rsdiscovery: a thin client of rs-discoveryd, the daemon that keeps a live table of
+// Intel RealSense cameras (found over DDS and USB).
+//
+// This is the whole public interface. It depends on the C++ standard library only:
+// the device document the daemon sends is handed over as JSON text (Device::json) next
+// to the fields most programs need, so callers are free to parse it with anything.
+//
+//   rsdiscovery::Client client;                       // default endpoint
+//   for (const auto& d : client.list_devices())
+//     std::cout << d.name << " " << d.serial << "\n";
+//
+// Every call that talks to the daemon throws rsdiscovery::Error on failure; its code()
+// tells what the caller can do about it.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <iterator>
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#if defined(__GNUC__) || defined(__clang__)
+#define RSDISCOVERY_API __attribute__((visibility("default")))
+#else
+#define RSDISCOVERY_API
+#endif
+
+namespace rsdiscovery {
+
+// The library's version ("major.minor.patch").
+RSDISCOVERY_API const char* version();
+
+// ---------------------------------------------------------------------------------
+// Errors
+
+enum class ErrorCode {
+  not_running,        // nothing listens at the endpoint (socket missing, refused)
+  permission_denied,  // the socket exists but this user may not connect to it
+  not_found,          // no such device
+  timeout,            // a wait ran out of time, or the daemon did not answer in time
+  malformed_reply,    // the daemon's answer is not what the API promises
+  version_mismatch,   // the daemon does not speak this library's API version (v1)
+  http_error,         // any other unexpected HTTP status
+  bad_endpoint,       // the endpoint string cannot be understood
+  cancelled,          // the call was stopped from another thread
+};
+RSDISCOVERY_API const char* to_string(ErrorCode code);
+
+class RSDISCOVERY_API Error : public std::runtime_error {
+ public:
+  Error(ErrorCode code, const std::string& message, int http_status = 0)
+      : std::runtime_error(message), code_(code), http_status_(http_status) {}
+  ErrorCode code() const noexcept { return code_; }
+  int http_status() const noexcept { return http_status_; }  // 0 when no HTTP reply
+
+ private:
+  ErrorCode code_;
+  int http_status_;
+};
+
+// ---------------------------------------------------------------------------------
+// Endpoint: where the daemon is.
+
+struct RSDISCOVERY_API Endpoint {
+  enum class Kind { unix_socket, http };
+  Kind kind = Kind::unix_socket;
+  std::string path;  // unix_socket: the socket's path
+  std::string host;  // http: host name or address (IPv6 without brackets)
+  int port = 0;      // http
+
+  // "unix:/run/x.sock", "unix:///run/x.sock", "/run/x.sock" or "http://host:port".
+  // Throws Error(bad_endpoint).
+  static Endpoint parse(const std::string& text);
+  // $RS_DISCOVERY_ENDPOINT when set and not empty, else default_socket().
+  static Endpoint from_environment();
+  // The daemon's own default: $RUNTIME_DIRECTORY/api.sock when set, else
+  // /run/rs-discoveryd/api.sock for root, else $XDG_RUNTIME_DIR/rs-discoveryd.sock.
+  static Endpoint default_socket();
+
+  std::string to_string() const;  // "unix:/path" or "http://host:port"
+};
+
+// ---------------------------------------------------------------------------------
+// What the daemon reports.
+
+struct ServerInfo {  // the realdds server that announced a DDS device
+  std::string participant_guid;
+  std::string participant_name;
+  std::vector<std::string> addresses;
+};
+
+struct UsbInfo {  // where a USB device is plugged
+  std::optional<int> bus;
+  std::string port_path;
+  std::string speed;
+};
+
+struct RSDISCOVERY_API Device {
+  std::string id;                    // stable, URL-safe; the key for get_device()
+  std::string source;                // "dds" or "usb"
+  std::vector<std::string> sources;  // when one camera is seen both ways; else {source}
+  std::optional<int> domain;         // DDS domain (DDS devices)
+  std::string topic_root;
+  std::string name;
+  std::string serial;
+  std::string product_line;
+  std::string product_id;
+  std::string fw_version;
+  bool recovery = false;
+  std::string first_seen;  // ISO 8601, UTC
+  std::string last_seen;
+  std::optional<ServerInfo> server;
+  std::optional<UsbInfo> usb;
+  std::string warning;  // empty when none
+  std::string json;     // the whole device document as the daemon sent it
+
+  // Any top-level field of the document as JSON text ("" when absent), for fields
+  // this struct does not name (for example "multicast-ip").
+  std::string field(const std::string& key) const;
+};
+
+// Builds a Device from a device document (JSON object text). Throws
+// Error(malformed_reply) when it is not one.
+RSDISCOVERY_API Device parse_device(const std::string& json_text);
+
+struct DomainStatus {
+  int domain = 0;
+  std::string state;
+  std::string participant_guid;
+  std::uint64_t devices = 0;
+  std::uint64_t accepted = 0;
+  std::map<std::string, std::uint64_t> rejected;  // reason -> count
+  std::string json;                               // the whole entry
+};
+
+struct Health {
+  std::string status;  // "ok" when healthy
+  std::string version;
+  std::uint64_t devices = 0;
+  std::string json;
+};
+
+// Filters of GET /v1/devices. Empty members do not filter.
+struct RSDISCOVERY_API DeviceFilter {
+  std::optional<int> domain;
+  std::string product_line;
+  std::string source;  // "dds" or "usb"
+
+  bool matches(const Device& device) const;  // the same test, done locally
+};
+
+struct Event {
+  enum class Type { added, changed, removed };
+  Type type = Type::added;
+  // The daemon's event id (its generation counter). Events the library derived
+  // itself from a re-list (synthetic) carry the id of the point they stand for.
+  std::uint64_t id = 0;
+  bool synthetic = false;  // true: derived from a re-list, not sent by the daemon
+  Device device;           // after the event; for removed, as it was last seen
+};
+RSDISCOVERY_API const char* to_string(Event::Type type);
+
+// ---------------------------------------------------------------------------------
+// Watching
+
+struct WatchOptions {
+  // Report every device present when the watch starts as a synthetic `added`.
+  bool initial = false;
+  // Resume after this event id (for example one saved by an earlier process).
+  std::optional<std::uint64_t> last_event_id;
+  // Only events whose device matches are reported (the view is still tracked whole).
+  DeviceFilter filter;
+  // Reconnect (and resume) when the daemon goes away, for example across a restart.
+  bool reconnect = true;
+  std::chrono::milliseconds max_reconnect_delay{2000};
+  // A stream silent for this long is taken as dead and reconnected (the daemon
+  // sends keep-alive comments well within it).
+  std::chrono::milliseconds idle_timeout{60000};
+};
+
+// Connection state changes of a watch, for logging; never required.
+struct WatchStatus {
+  bool connected = false;
+  std::string message;  // why it disconnected, or where it connected
+};
+
+class WatchCore;  // the library's insides
+
+// A running watch, in pull style: next() blocks for the next event. The stream keeps
+// a consistent view of the table across reconnects: after a gap the daemon cannot
+// fill (a daemon restart), the library re-lists and reports the difference as
+// synthetic events, so no addition or removal is lost.
+class RSDISCOVERY_API Watch {
+ public:
+  Watch(Watch&&) noexcept;
+  Watch& operator=(Watch&&) noexcept;
+  ~Watch();  // stops
+
+  // The next event, or nothing when `timeout` passes first or the watch was stopped.
+  // Throws Error when the watch ended on an error it could not recover from
+  // (permission denied, version mismatch, malformed reply; not_running only when
+  // reconnect is off).
+  std::optional<Event> next(std::chrono::milliseconds timeout);
+  std::optional<Event> next();  // waits without limit; nothing once stopped
+
+  void stop();  // from any thread; next() then returns nothing
+  bool stopped() const;
+  std::uint64_t last_event_id() const;  // to resume from, in a later watch
+  std::vector<Device> devices() const;  // the view as tracked now
+
+  // Range-for support: `for (const Event& e : watch)` runs until stop() or an error.
+  class iterator {
+   public:
+    using iterator_category = std::input_iterator_tag;
+    using value_type = Event;
+    using difference_type = std::ptrdiff_t;
+    using pointer = const Event*;
+    using reference = const Event&;
+    iterator() = default;
+    explicit iterator(Watch* watch) : watch_(watch) { ++*this; }
+    reference operator*() const { return *current_; }
+    pointer operator->() const { return &*current_; }
+    iterator& operator++() {
+      current_ = watch_->next();
+      if (!current_) watch_ = nullptr;
+      return *this;
+    }
+    void operator++(int) { ++*this; }
+    bool operator==(const iterator& other) const { return watch_ == other.watch_; }
+    bool operator!=(const iterator& other) const { return watch_ != other.watch_; }
+
+   private:
+    Watch* watch_ = nullptr;
+    std::optional<Event> current_;
+  };
+  iterator begin() { return iterator(this); }
+  iterator end() { return iterator(); }
+
+ private:
+  friend class Client;
+  explicit Watch(std::shared_ptr<WatchCore> core);
+  std::shared_ptr<WatchCore> core_;
+};
+
+// A running watch in push style: the callback runs on a thread of the library's.
+// An exception thrown by the callback stops the watch and is handed to on_error (or,
+// without one, printed to stderr); wait() rethrows it as well.
+class RSDISCOVERY_API Subscription {
+ public:
+  Subscription(Subscription&&) noexcept;
+  Subscription& operator=(Subscription&&) noexcept;
+  ~Subscription();  // stops and joins
+
+  void stop();           // from any thread but the callback's own
+  bool running() const;  // false once stopped or failed
+  // Blocks until the watch ends (stop() or an error); rethrows the error, if any.
+  void wait();
+  std::uint64_t last_event_id() const;
+
+ private:
+  friend class Client;
+  struct State;
+  explicit Subscription(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
+
+// ---------------------------------------------------------------------------------
+// The client
+
+struct ClientOptions {
+  std::chrono::milliseconds connect_timeout{2000};
+  std::chrono::milliseconds request_timeout{10000};
+};
+
+class RSDISCOVERY_API Client {
+ public:
+  Client();  // Endpoint::from_environment()
+  explicit Client(Endpoint endpoint, ClientOptions options = {});
+  explicit Client(const std::string& endpoint, ClientOptions options = {});
+  Client(Client&&) noexcept;
+  Client& operator=(Client&&) noexcept;
+  ~Client();
+
+  const Endpoint& endpoint() const;
+
+  std::vector<Device> list_devices(const DeviceFilter& filter = {});
+  Device get_device(const std::string& id);  // throws Error(not_found)
+  std::optional<Device> find_device(const std::string& id);  // nothing when absent
+  std::vector<DomainStatus> domains();
+  Health health();
+  std::string metrics();  // Prometheus text
+
+  // Waits until a device satisfying `predicate` is present (it may be already) and
+  // returns it; nothing when `timeout` passes first.
+  std::optional<Device> wait_for(const std::function<bool(const Device&)>& predicate,
+                                 std::chrono::milliseconds timeout);
+  // Waits until the devices matching `filter` satisfy `predicate` as a set; returns
+  // that set, or nothing on timeout. `wait_until(f, [](auto& v){ return v.size() >= 2; })`
+  std::optional<std::vector<Device>> wait_until(
+      const DeviceFilter& filter,
+      const std::function<bool(const std::vector<Device>&)>& predicate,
+      std::chrono::milliseconds timeout);
+
+  // Pull-style watch. Returns once the stream is open (and, without a last_event_id,
+  // the view listed); throws at once when the daemon cannot be reached then. Later
+  // disconnects are reconnected (options.reconnect).
+  Watch watch(WatchOptions options = {});
+  // Push-style watch: `on_event` runs on the library's thread for every event.
+  Subscription watch(std::function<void(const Event&)> on_event, WatchOptions options = {},
+                     std::function<void(std::exception_ptr)> on_error = {},
+                     std::function<void(const WatchStatus&)> on_status = {});
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rsdiscovery

@@ -1,0 +1,147 @@
+// The client: one kept-alive connection for requests, one thread per watch.
+#include "watch_core.hpp"
+
+#include <mutex>
+
+namespace rsdiscovery {
+
+using nlohmann::json;
+
+struct Client::Impl {
+  Impl(Endpoint ep, ClientOptions opts) : endpoint(std::move(ep)), options(opts), transport(endpoint, opts) {}
+  Endpoint endpoint;
+  ClientOptions options;
+  std::mutex mutex;  // one request at a time on the connection
+  detail::Transport transport;
+
+  json get_json(const std::string& path) {
+    std::lock_guard lock(mutex);
+    return transport.get_json(path);
+  }
+};
+
+Client::Client() : Client(Endpoint::from_environment()) {}
+Client::Client(Endpoint endpoint, ClientOptions options)
+    : impl_(std::make_unique<Impl>(std::move(endpoint), options)) {}
+Client::Client(const std::string& endpoint, ClientOptions options)
+    : Client(endpoint.empty() ? Endpoint::from_environment() : Endpoint::parse(endpoint), options) {}
+Client::Client(Client&&) noexcept = default;
+Client& Client::operator=(Client&&) noexcept = default;
+Client::~Client() = default;
+
+const Endpoint& Client::endpoint() const { return impl_->endpoint; }
+
+namespace {
+[[noreturn]] void malformed(const Endpoint& ep, const std::string& what) {
+  throw Error(ErrorCode::malformed_reply,
+              "malformed reply from rs-discoveryd at " + ep.to_string() + ": " + what);
+}
+}  // namespace
+
+std::vector<Device> Client::list_devices(const DeviceFilter& filter) {
+  json reply = impl_->get_json(detail::devices_path(filter));
+  auto list = reply.find("devices");
+  if (list == reply.end() || !list->is_array()) malformed(impl_->endpoint, "no \"devices\" array");
+  std::vector<Device> out;
+  out.reserve(list->size());
+  for (const auto& d : *list) out.push_back(detail::device_from_json(d));
+  return out;
+}
+
+std::optional<Device> Client::find_device(const std::string& id) {
+  std::string path = "/v1/devices/" + detail::percent_encode(id);
+  detail::Reply reply;
+  {
+    std::lock_guard lock(impl_->mutex);
+    reply = impl_->transport.get(path);
+  }
+  if (reply.status == 404) {
+    return std::nullopt;
+  }
+  if (reply.status != 200) {
+    std::lock_guard lock(impl_->mutex);
+    impl_->transport.get_json(path);  // turns the status into its Error
+    malformed(impl_->endpoint, "GET " + path + " answered " + std::to_string(reply.status));
+  }
+  auto doc = json::parse(reply.body, nullptr, false);
+  if (doc.is_discarded()) malformed(impl_->endpoint, "GET " + path + " is not JSON");
+  return detail::device_from_json(doc);
+}
+
+Device Client::get_device(const std::string& id) {
+  if (auto d = find_device(id)) return *d;
+  throw Error(ErrorCode::not_found, "no device '" + id + "' at rs-discoveryd (" +
+                                        impl_->endpoint.to_string() + ")",
+              404);
+}
+
+std::vector<DomainStatus> Client::domains() {
+  json reply = impl_->get_json("/v1/domains");
+  auto list = reply.find("domains");
+  if (list == reply.end() || !list->is_array()) malformed(impl_->endpoint, "no \"domains\" array");
+  std::vector<DomainStatus> out;
+  for (const auto& d : *list) out.push_back(detail::domain_from_json(d));
+  return out;
+}
+
+Health Client::health() { return detail::health_from_json(impl_->get_json("/healthz")); }
+
+std::string Client::metrics() {
+  std::lock_guard lock(impl_->mutex);
+  auto reply = impl_->transport.get("/metrics");
+  if (reply.status != 200) impl_->transport.get_json("/metrics");  // throws its Error
+  return reply.body;
+}
+
+Watch Client::watch(WatchOptions options) {
+  auto core = std::make_shared<WatchCore>(impl_->endpoint, impl_->options, std::move(options));
+  core->start_pull();
+  return Watch(std::move(core));
+}
+
+Subscription Client::watch(std::function<void(const Event&)> on_event, WatchOptions options,
+                           std::function<void(std::exception_ptr)> on_error,
+                           std::function<void(const WatchStatus&)> on_status) {
+  auto core = std::make_shared<WatchCore>(impl_->endpoint, impl_->options, std::move(options));
+  auto state = std::make_unique<Subscription::State>();
+  state->core = core;
+  core->start([cb = std::move(on_event)](Event&& e) { cb(e); }, std::move(on_status),
+              [on_error = std::move(on_error)](std::exception_ptr e) {
+                detail::report_watch_end(e, on_error);
+              });
+  return Subscription(std::move(state));
+}
+
+std::optional<std::vector<Device>> Client::wait_until(
+    const DeviceFilter& filter, const std::function<bool(const std::vector<Device>&)>& predicate,
+    std::chrono::milliseconds timeout) {
+  auto deadline = std::chrono::steady_clock::now() + timeout;
+  // Fast path: it may hold already, and one request is much cheaper than a watch.
+  if (auto now = list_devices(filter); predicate(now)) return now;
+  WatchOptions options;
+  options.filter = filter;
+  Watch w = watch(options);
+  for (;;) {
+    auto devices = w.devices();
+    if (predicate(devices)) return devices;
+    auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left <= std::chrono::milliseconds::zero()) return std::nullopt;
+    w.next(left);  // any event (or the timeout): look again
+  }
+}
+
+std::optional<Device> Client::wait_for(const std::function<bool(const Device&)>& predicate,
+                                       std::chrono::milliseconds timeout) {
+  std::optional<Device> found;
+  auto set = wait_until({}, [&](const std::vector<Device>& devices) {
+    for (const auto& d : devices)
+      if (predicate(d)) {
+        found = d;
+        return true;
+      }
+    return false;
+  }, timeout);
+  return set ? found : std::nullopt;
+}
+
+}  // namespace rsdiscovery

@@ -1,0 +1,99 @@
+// Where the daemon is: endpoint strings, the environment, the daemon's default path.
+#include "internal.hpp"
+
+#include <unistd.h>
+
+#include <cstdlib>
+
+namespace rsdiscovery {
+
+namespace {
+
+const char* env(const char* name) {
+  const char* value = std::getenv(name);
+  return value && *value ? value : nullptr;
+}
+
+[[noreturn]] void bad(const std::string& text, const std::string& why) {
+  throw Error(ErrorCode::bad_endpoint,
+              "bad endpoint '" + text + "': " + why +
+                  " (expected unix:/path/to/socket or http://host:port)");
+}
+
+}  // namespace
+
+Endpoint Endpoint::parse(const std::string& text) {
+  Endpoint ep;
+  if (text.rfind("unix:", 0) == 0 || (!text.empty() && text[0] == '/')) {
+    std::string path = text[0] == '/' ? text : text.substr(5);
+    if (path.rfind("//", 0) == 0) path = path.substr(2);  // unix:///run/x.sock
+    if (path.empty() || path[0] != '/') bad(text, "the socket path must be absolute");
+    ep.kind = Kind::unix_socket;
+    ep.path = path;
+    return ep;
+  }
+  if (text.rfind("https://", 0) == 0) bad(text, "https is not supported; the daemon serves plain HTTP");
+  if (text.rfind("http://", 0) != 0) bad(text, "unknown scheme");
+  std::string rest = text.substr(7);
+  if (auto slash = rest.find('/'); slash != std::string::npos) {
+    if (rest.find_first_not_of('/', slash) != std::string::npos)
+      bad(text, "a path after host:port is not supported");
+    rest.resize(slash);
+  }
+  std::string host, port;
+  if (!rest.empty() && rest[0] == '[') {  // [::1]:8035
+    auto close = rest.find(']');
+    if (close == std::string::npos) bad(text, "unclosed '['");
+    host = rest.substr(1, close - 1);
+    if (close + 1 < rest.size()) {
+      if (rest[close + 1] != ':') bad(text, "junk after ']'");
+      port = rest.substr(close + 2);
+    }
+  } else {
+    auto colon = rest.rfind(':');
+    host = rest.substr(0, colon);
+    if (colon != std::string::npos) port = rest.substr(colon + 1);
+  }
+  if (host.empty()) bad(text, "no host");
+  ep.kind = Kind::http;
+  ep.host = host;
+  ep.port = 80;
+  if (!port.empty()) {
+    if (port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos)
+      bad(text, "the port is not a number");
+    ep.port = std::stoi(port);
+    if (ep.port < 1 || ep.port > 65535) bad(text, "the port is out of range");
+  }
+  return ep;
+}
+
+Endpoint Endpoint::default_socket() {
+  Endpoint ep;
+  ep.kind = Kind::unix_socket;
+  if (const char* dir = env("RUNTIME_DIRECTORY")) {
+    // systemd may pass several directories separated by ':'; the daemon uses the first.
+    std::string first(dir);
+    first = first.substr(0, first.find(':'));
+    ep.path = first + "/api.sock";
+  } else if (geteuid() == 0) {
+    ep.path = "/run/rs-discoveryd/api.sock";
+  } else if (const char* xdg = env("XDG_RUNTIME_DIR")) {
+    ep.path = std::string(xdg) + "/rs-discoveryd.sock";
+  } else {
+    ep.path = "/run/user/" + std::to_string(geteuid()) + "/rs-discoveryd.sock";
+  }
+  return ep;
+}
+
+Endpoint Endpoint::from_environment() {
+  if (const char* text = env("RS_DISCOVERY_ENDPOINT")) return parse(text);
+  return default_socket();
+}
+
+std::string Endpoint::to_string() const {
+  if (kind == Kind::unix_socket) return "unix:" + path;
+  bool v6 = host.find(':') != std::string::npos;
+  return "http://" + (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
+}
+
+}  // namespace rsdiscovery

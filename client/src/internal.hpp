@@ -1,0 +1,114 @@
+// The library's insides, shared by its files and its unit tests; not installed.
+#pragma once
+
+#include "rsdiscovery/rsdiscovery.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <string_view>
+#include <utility>
+
+namespace httplib {
+class Client;
+struct Response;
+}  // namespace httplib
+
+namespace rsdiscovery::detail {
+
+// ---- JSON -> public types --------------------------------------------------------
+Device device_from_json(const nlohmann::json& doc);  // throws Error(malformed_reply)
+DomainStatus domain_from_json(const nlohmann::json& doc);
+Health health_from_json(const nlohmann::json& doc);
+
+// The same device document, apart from fields that move without being news
+// ("last-seen"): what the watch compares to tell a real change.
+bool same_device(const nlohmann::json& a, const nlohmann::json& b);
+
+// "/v1/devices?domain=7&product-line=D400" (values percent-encoded).
+std::string devices_path(const DeviceFilter& filter);
+std::string percent_encode(std::string_view text);
+
+// ---- Server-Sent Events ------------------------------------------------------------
+struct SseMessage {
+  std::string event;  // "message" when the stream named none
+  std::string data;   // data lines joined with '\n'
+  std::string id;     // the id field of this message, "" when it had none
+  bool has_id = false;
+};
+
+// Incremental parser (WHATWG rules): feed any chunking of the stream, get messages.
+class SseParser {
+ public:
+  using Sink = std::function<void(SseMessage&&)>;
+  explicit SseParser(Sink sink) : sink_(std::move(sink)) {}
+  void feed(std::string_view chunk);
+  std::size_t comments() const { return comments_; }  // keep-alives seen
+
+ private:
+  void line(std::string_view text);
+  Sink sink_;
+  std::string pending_;  // an incomplete line
+  bool last_was_cr_ = false;
+  bool bom_checked_ = false;
+  std::string event_, data_, id_;
+  bool has_data_ = false, has_id_ = false;
+  std::size_t comments_ = 0;
+};
+
+// ---- Transport: one HTTP connection to the daemon -----------------------------------
+struct Reply {
+  int status = 0;
+  std::string content_type;
+  std::string body;
+};
+
+class Transport {
+ public:
+  Transport(Endpoint endpoint, ClientOptions options);
+  ~Transport();
+  Transport(const Transport&) = delete;
+  Transport& operator=(const Transport&) = delete;
+
+  // One GET; throws Error for anything but an HTTP reply (not running, permission
+  // denied, timeout).
+  Reply get(const std::string& path);
+  // GET and parse a JSON object (status 200), mapping 404/405 on an API path to
+  // version_mismatch and other statuses to http_error.
+  nlohmann::json get_json(const std::string& path);
+
+  // An SSE stream. `on_open` runs once the reply's head is in (return false to
+  // cancel), `on_data` for each chunk (false cancels). Returns when the stream ends.
+  // Throws Error for connection failures and a non-200 reply.
+  void stream(const std::string& path, const std::string& last_event_id,
+              const std::function<bool()>& on_open,
+              const std::function<bool(const char*, std::size_t)>& on_data,
+              std::chrono::milliseconds idle_timeout);
+  // Ends a stream() or get() in progress on another thread (and any later one).
+  void cancel();
+
+  const Endpoint& endpoint() const { return endpoint_; }
+
+ private:
+  std::unique_ptr<httplib::Client> make_client(std::chrono::milliseconds read_timeout) const;
+  [[noreturn]] void fail_transport(int httplib_error, std::chrono::steady_clock::duration elapsed,
+                                   std::chrono::milliseconds timeout) const;
+  Error status_error(const std::string& path, const Reply& reply);
+
+  Endpoint endpoint_;
+  ClientOptions options_;
+  std::unique_ptr<httplib::Client> http_;  // kept alive between get()s
+  std::mutex stream_mutex_;
+  httplib::Client* streaming_ = nullptr;  // the stream's client, for cancel()
+  std::atomic<bool> cancelled_{false};
+};
+
+// Why connecting to the endpoint fails, found by trying once with a plain socket:
+// an Error naming the path and what to do.
+Error diagnose_connect(const Endpoint& endpoint);
+
+}  // namespace rsdiscovery::detail

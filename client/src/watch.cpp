@@ -1,0 +1,364 @@
+// Watching the daemon's event stream: one thread per watch that keeps the stream
+// open, resumes with Last-Event-ID after a disconnect, and re-lists when the daemon
+// says it cannot fill the gap, so the caller sees every addition and removal.
+#include "watch_core.hpp"
+
+#include <charconv>
+#include <cstdio>
+
+namespace rsdiscovery {
+
+using nlohmann::json;
+using namespace std::chrono_literals;
+
+WatchCore::WatchCore(Endpoint endpoint, ClientOptions client_options, WatchOptions options)
+    : stream_(endpoint, client_options),
+      lister_(endpoint, client_options),
+      options_(std::move(options)),
+      last_id_(options_.last_event_id) {}
+
+WatchCore::~WatchCore() { stop(); }
+
+void WatchCore::start_pull() {
+  start([this](Event&& e) {
+    {
+      std::lock_guard lock(mutex_);
+      queue_.push_back(std::move(e));
+    }
+    cv_.notify_all();
+  }, {}, {});
+}
+
+void WatchCore::start(Sink sink, StatusSink status, EndSink on_end) {
+  sink_ = std::move(sink);
+  status_ = std::move(status);
+  on_end_ = std::move(on_end);
+  thread_ = std::thread([this] { run(); });
+  std::unique_lock lock(mutex_);
+  cv_.wait(lock, [this] { return first_done_; });
+  if (first_error_) {
+    lock.unlock();
+    stop();
+    std::rethrow_exception(first_error_);
+  }
+}
+
+void WatchCore::stop() {
+  stop_ = true;
+  cv_.notify_all();
+  if (!thread_.joinable()) return;
+  if (std::this_thread::get_id() == thread_.get_id()) return;  // from the callback: it ends after
+  std::unique_lock lock(mutex_);
+  while (!finished_) {
+    lock.unlock();
+    stream_.cancel();  // repeated: a stream may be opening just now
+    lister_.cancel();
+    lock.lock();
+    cv_.wait_for(lock, 50ms, [this] { return finished_; });
+  }
+  lock.unlock();
+  thread_.join();
+}
+
+bool WatchCore::finished() const {
+  std::lock_guard lock(mutex_);
+  return finished_;
+}
+
+std::exception_ptr WatchCore::end_error() const {
+  std::lock_guard lock(mutex_);
+  return end_error_;
+}
+
+void WatchCore::wait_finished() {
+  std::unique_lock lock(mutex_);
+  cv_.wait(lock, [this] { return finished_; });
+}
+
+std::uint64_t WatchCore::last_event_id() const {
+  std::lock_guard lock(mutex_);
+  return last_id_.value_or(0);
+}
+
+std::vector<Device> WatchCore::devices() const {
+  std::lock_guard lock(mutex_);
+  std::vector<Device> out;
+  for (const auto& [id, doc] : known_) {
+    Device d = detail::device_from_json(doc);
+    if (options_.filter.matches(d)) out.push_back(std::move(d));
+  }
+  return out;
+}
+
+std::optional<Event> WatchCore::next(std::optional<std::chrono::milliseconds> timeout) {
+  std::unique_lock lock(mutex_);
+  auto ready = [this] { return !queue_.empty() || finished_ || stop_; };
+  if (timeout)
+    cv_.wait_for(lock, *timeout, ready);
+  else
+    cv_.wait(lock, ready);
+  if (!queue_.empty()) {
+    Event e = std::move(queue_.front());
+    queue_.pop_front();
+    return e;
+  }
+  if (finished_ && end_error_ && !stop_) std::rethrow_exception(end_error_);
+  return std::nullopt;
+}
+
+void WatchCore::status(bool connected, const std::string& message) {
+  if (status_) status_(WatchStatus{connected, message});
+}
+
+void WatchCore::first_result(std::exception_ptr error) {
+  std::lock_guard lock(mutex_);
+  if (first_done_) return;
+  first_done_ = true;
+  first_error_ = error;
+  cv_.notify_all();
+}
+
+void WatchCore::run() {
+  auto delay = std::chrono::milliseconds(100);
+  std::exception_ptr error;
+  while (!stop_) {
+    bool connected = false;
+    try {
+      connect_once(connected);
+      if (stop_) break;
+      if (!options_.reconnect)
+        throw Error(ErrorCode::not_running, "rs-discoveryd at " + stream_.endpoint().to_string() +
+                                                " ended the event stream");
+      status(false, "the event stream ended; reconnecting");
+    } catch (const Error& e) {
+      if (stop_ || e.code() == ErrorCode::cancelled) break;
+      if (!first_done_) {  // start() hands this one to its caller
+        first_result(std::current_exception());
+        break;
+      }
+      bool transient = e.code() == ErrorCode::not_running || e.code() == ErrorCode::timeout ||
+                       (e.code() == ErrorCode::http_error && e.http_status() >= 500);
+      if (!transient || !options_.reconnect) {
+        error = std::current_exception();
+        break;
+      }
+      status(false, e.what());
+    } catch (...) {  // the caller's callback threw, or something unexpected
+      if (!first_done_) {
+        first_result(std::current_exception());
+        break;
+      }
+      error = std::current_exception();
+      break;
+    }
+    if (connected) delay = 100ms;
+    std::unique_lock lock(mutex_);
+    cv_.wait_for(lock, delay, [this] { return stop_.load(); });
+    delay = std::min(delay * 2, std::max(options_.max_reconnect_delay, 100ms));
+  }
+  first_result(nullptr);
+  {
+    std::lock_guard lock(mutex_);
+    end_error_ = error;
+    finished_ = true;
+  }
+  cv_.notify_all();
+  if (on_end_) on_end_(error);
+}
+
+void WatchCore::connect_once(bool& connected) {
+  std::exception_ptr inner;  // thrown inside the stream's callbacks, rethrown here
+  detail::SseParser parser([this](detail::SseMessage&& m) { handle(m); });
+  std::string last;
+  {
+    std::lock_guard lock(mutex_);
+    if (last_id_) last = std::to_string(*last_id_);
+  }
+  stream_.stream(
+      "/v1/events", last,
+      [&] {
+        try {
+          connected = true;
+          status(true, "connected to " + stream_.endpoint().to_string());
+          bool resuming = !last.empty();
+          if (!resuming) {
+            // No point to resume from: take the table as it is now. The stream is
+            // already open, so nothing that happens from here on is missed.
+            relist(view_complete_ || options_.initial);
+          }
+          first_result(nullptr);
+          return !stop_;
+        } catch (...) {
+          inner = std::current_exception();
+          return false;
+        }
+      },
+      [&](const char* data, std::size_t len) {
+        try {
+          parser.feed(std::string_view(data, len));
+          return !stop_;
+        } catch (...) {
+          inner = std::current_exception();
+          return false;
+        }
+      },
+      options_.idle_timeout);
+  if (inner) std::rethrow_exception(inner);
+}
+
+namespace {
+std::optional<std::uint64_t> parse_id(const std::string& text) {
+  std::uint64_t v = 0;
+  auto [p, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec != std::errc() || p != text.data() + text.size()) return std::nullopt;
+  return v;
+}
+}  // namespace
+
+void WatchCore::handle(const detail::SseMessage& m) {
+  std::optional<std::uint64_t> id = m.has_id ? parse_id(m.id) : std::nullopt;
+  if (m.event == "resync") {
+    {
+      std::lock_guard lock(mutex_);
+      last_id_ = id;  // none: the next reconnect re-lists
+    }
+    relist(true);
+    return;
+  }
+  Event::Type type;
+  if (m.event == "added")
+    type = Event::Type::added;
+  else if (m.event == "changed")
+    type = Event::Type::changed;
+  else if (m.event == "removed")
+    type = Event::Type::removed;
+  else
+    return;  // an event type of a later API version
+  auto doc = json::parse(m.data, nullptr, false);
+  if (doc.is_discarded() || !doc.is_object() || !doc.contains("id") || !doc["id"].is_string())
+    throw Error(ErrorCode::malformed_reply, "malformed event from rs-discoveryd at " +
+                                                stream_.endpoint().to_string() + ": '" + m.event +
+                                                "' without a device document");
+  if (id) {
+    std::lock_guard lock(mutex_);
+    last_id_ = id;
+  }
+  apply(type, std::move(doc), id.value_or(0), false);
+}
+
+void WatchCore::apply(Event::Type type, json doc, std::uint64_t id, bool synthetic) {
+  Event out;
+  out.id = id;
+  out.synthetic = synthetic;
+  {
+    std::lock_guard lock(mutex_);
+    std::string key = doc["id"].get<std::string>();
+    auto it = known_.find(key);
+    if (type == Event::Type::removed) {
+      if (it == known_.end()) {
+        if (view_complete_) return;  // removed before we listed it: never seen
+      } else {
+        known_.erase(it);
+      }
+      out.type = Event::Type::removed;
+    } else {
+      if (it != known_.end() && detail::same_device(it->second, doc)) {
+        it->second = std::move(doc);
+        return;  // already known as it is (a replay, or in the list already)
+      }
+      out.type = it == known_.end() ? Event::Type::added : Event::Type::changed;
+      known_[key] = doc;
+    }
+    out.device = detail::device_from_json(doc);
+  }
+  if (!options_.filter.matches(out.device)) return;
+  sink_(std::move(out));
+}
+
+void WatchCore::relist(bool emit) {
+  json reply = lister_.get_json("/v1/devices");
+  auto list = reply.find("devices");
+  if (list == reply.end() || !list->is_array())
+    throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd at " +
+                                                lister_.endpoint().to_string() +
+                                                ": /v1/devices has no \"devices\" array");
+  std::map<std::string, json> fresh;
+  for (auto& d : *list) {
+    if (!d.is_object() || !d.contains("id") || !d["id"].is_string())
+      throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: a device has no \"id\"");
+    fresh[d["id"].get<std::string>()] = d;
+  }
+  std::uint64_t at;
+  std::vector<json> gone;
+  {
+    std::lock_guard lock(mutex_);
+    at = last_id_.value_or(0);
+    if (!emit) {
+      known_ = std::move(fresh);
+      view_complete_ = true;
+      return;
+    }
+    for (const auto& [key, doc] : known_)
+      if (!fresh.count(key)) gone.push_back(doc);
+    view_complete_ = true;
+  }
+  for (auto& doc : gone) apply(Event::Type::removed, std::move(doc), at, true);
+  for (auto& [key, doc] : fresh) apply(Event::Type::added, std::move(doc), at, true);
+}
+
+// ---- Watch ---------------------------------------------------------------------------
+
+Watch::Watch(std::shared_ptr<WatchCore> core) : core_(std::move(core)) {}
+Watch::Watch(Watch&&) noexcept = default;
+Watch& Watch::operator=(Watch&&) noexcept = default;
+Watch::~Watch() {
+  if (core_) core_->stop();
+}
+std::optional<Event> Watch::next(std::chrono::milliseconds timeout) { return core_->next(timeout); }
+std::optional<Event> Watch::next() { return core_->next(std::nullopt); }
+void Watch::stop() { core_->stop(); }
+bool Watch::stopped() const { return core_->finished(); }
+std::uint64_t Watch::last_event_id() const { return core_->last_event_id(); }
+std::vector<Device> Watch::devices() const { return core_->devices(); }
+
+// ---- Subscription --------------------------------------------------------------------
+
+Subscription::Subscription(std::unique_ptr<State> state) : state_(std::move(state)) {}
+Subscription::Subscription(Subscription&&) noexcept = default;
+Subscription& Subscription::operator=(Subscription&&) noexcept = default;
+Subscription::~Subscription() {
+  if (state_) state_->core->stop();
+}
+void Subscription::stop() { state_->core->stop(); }
+bool Subscription::running() const { return !state_->core->finished(); }
+void Subscription::wait() {
+  state_->core->wait_finished();
+  if (auto e = state_->core->end_error()) std::rethrow_exception(e);
+}
+std::uint64_t Subscription::last_event_id() const { return state_->core->last_event_id(); }
+
+namespace detail {
+
+void report_watch_end(std::exception_ptr error, const std::function<void(std::exception_ptr)>& on_error) {
+  if (!error) return;
+  if (on_error) {
+    try {
+      on_error(error);
+      return;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "rsdiscovery: the watch's error handler threw: %s\n", e.what());
+    } catch (...) {
+      std::fprintf(stderr, "rsdiscovery: the watch's error handler threw\n");
+    }
+  }
+  try {
+    std::rethrow_exception(error);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rsdiscovery: watch stopped: %s\n", e.what());
+  } catch (...) {
+    std::fprintf(stderr, "rsdiscovery: watch stopped by an exception that is not std::exception\n");
+  }
+}
+
+}  // namespace detail
+}  // namespace rsdiscovery

@@ -1,0 +1,79 @@
+// The thread behind a Watch or a Subscription; not installed.
+#pragma once
+
+#include "internal.hpp"
+
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <thread>
+
+namespace rsdiscovery {
+
+class WatchCore {
+ public:
+  using Sink = std::function<void(Event&&)>;
+  using StatusSink = std::function<void(const WatchStatus&)>;
+  using EndSink = std::function<void(std::exception_ptr)>;
+
+  WatchCore(Endpoint endpoint, ClientOptions client_options, WatchOptions options);
+  ~WatchCore();
+  WatchCore(const WatchCore&) = delete;
+  WatchCore& operator=(const WatchCore&) = delete;
+
+  // Starts the thread and returns once the stream is open and the view listed;
+  // throws the error of that first attempt. `on_end` runs on the thread as it ends.
+  void start(Sink sink, StatusSink status, EndSink on_end);
+  void start_pull();  // events go to a queue that next() reads
+
+  void stop();  // idempotent; joins, unless called from the watch's own thread
+  bool finished() const;
+  void wait_finished();
+  std::exception_ptr end_error() const;
+  std::uint64_t last_event_id() const;
+  std::vector<Device> devices() const;
+  std::optional<Event> next(std::optional<std::chrono::milliseconds> timeout);
+
+ private:
+  void run();
+  void connect_once(bool& connected);
+  void handle(const detail::SseMessage& message);
+  void apply(Event::Type type, nlohmann::json doc, std::uint64_t id, bool synthetic);
+  void relist(bool emit);
+  void status(bool connected, const std::string& message);
+  void first_result(std::exception_ptr error);
+
+  detail::Transport stream_;  // the event stream
+  detail::Transport lister_;  // re-lists, while the stream stays open
+  WatchOptions options_;
+  Sink sink_;
+  StatusSink status_;
+  EndSink on_end_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::map<std::string, nlohmann::json> known_;  // the view: id -> device document
+  bool view_complete_ = false;  // known_ came from a list (else from events only)
+  std::optional<std::uint64_t> last_id_;
+  std::deque<Event> queue_;  // pull mode
+  std::atomic<bool> stop_{false};
+  bool first_done_ = false;
+  std::exception_ptr first_error_;
+  bool finished_ = false;
+  std::exception_ptr end_error_;
+  std::thread thread_;
+};
+
+struct Subscription::State {
+  std::shared_ptr<WatchCore> core;
+};
+
+namespace detail {
+// An ended watch's error goes to on_error, or to stderr: never nowhere.
+void report_watch_end(std::exception_ptr error,
+                      const std::function<void(std::exception_ptr)>& on_error);
+}  // namespace detail
+
+}  // namespace rsdiscovery
