@@ -101,7 +101,12 @@ Parsed parse_device_info(std::int32_t format, std::span<const std::uint8_t> data
   DepthLimitedSax sax(doc);
   bool ok;
   if (format == static_cast<std::int32_t>(DataFormat::json)) {
-    const std::string_view text(reinterpret_cast<const char*>(data.data()), data.size());
+    std::string_view text(reinterpret_cast<const char*>(data.data()), data.size());
+    // A C-string writer may send its terminator; forgive that, but a NUL inside
+    // the text would make the parser stop early and take half a message.
+    while (!text.empty() && text.back() == '\0') text.remove_suffix(1);
+    if (text.find('\0') != std::string_view::npos) return Rejected{"not-json", "NUL inside JSON text"};
+    if (text.empty()) return Rejected{"empty", "only NUL bytes"};
     if (!is_valid_utf8(text)) return Rejected{"invalid-utf8", "JSON text is not UTF-8"};
     ok = json::sax_parse(text.begin(), text.end(), &sax, nlohmann::json::input_format_t::json, true);
     if (sax.too_deep()) return Rejected{"too-deep", "nesting over " + std::to_string(kMaxDepth)};

@@ -1,0 +1,99 @@
+#include "config/config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <vector>
+
+using rsd::CommandAction;
+using rsd::Config;
+using rsd::ConfigError;
+
+namespace {
+rsd::CommandLine parse(std::vector<const char*> args) {
+  args.insert(args.begin(), "rs-discoveryd");
+  return rsd::parse_command_line(static_cast<int>(args.size()), args.data());
+}
+}  // namespace
+
+TEST(Config, EmbeddedDefaults) {
+  // The struct's own values, not parse({}): a machine with the package
+  // installed has /etc/rs-discoveryd/config.json, which parse() would read.
+  const Config c;
+  EXPECT_EQ(c.domains, (std::vector<int>{0}));
+  EXPECT_EQ(c.http_host, "127.0.0.1");
+  EXPECT_EQ(c.http_port, rsd::kDefaultHttpPort);
+  EXPECT_TRUE(c.usb);
+  EXPECT_EQ(c.log_level, "info");
+}
+
+TEST(Config, FlagsParse) {
+  auto cl = parse({"--domain", "5", "-d", "232", "--socket", "/tmp/x.sock", "--http", "0.0.0.0:9000",
+                   "--no-usb", "--participant-name", "bench", "--log-level", "debug"});
+  const Config& c = cl.config;
+  EXPECT_EQ(c.domains, (std::vector<int>{5, 232}));
+  EXPECT_EQ(c.socket_path, "/tmp/x.sock");
+  EXPECT_EQ(c.http_host, "0.0.0.0");
+  EXPECT_EQ(c.http_port, 9000);
+  EXPECT_FALSE(c.usb);
+  EXPECT_EQ(c.participant_name, "bench");
+  EXPECT_EQ(c.log_level, "debug");
+}
+
+TEST(Config, OffAndIpv6) {
+  auto c = parse({"--http", "off"}).config;
+  EXPECT_TRUE(c.http_host.empty());
+  c = parse({"--http=[::1]:8035", "--socket=off"}).config;
+  EXPECT_EQ(c.http_host, "::1");
+  EXPECT_TRUE(c.socket_path.empty());
+  EXPECT_THROW(parse({"--http", "off", "--socket", "off"}), ConfigError);
+}
+
+TEST(Config, BadValuesAreClearErrors) {
+  for (std::vector<const char*> args :
+       {std::vector<const char*>{"--domain", "233"}, {"--domain", "-1"}, {"--domain", "x"}, {"--domain"},
+        {"--http", "localhost"}, {"--http", "h:0"}, {"--http", "h:70000"}, {"--log-level", "loud"},
+        {"--frobnicate"}, {"--socket", ""}}) {
+    EXPECT_THROW(parse(args), ConfigError) << args[0];
+  }
+  try {
+    parse({"--domain", "300"});
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("0 to 232"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Config, HelpAndVersion) {
+  EXPECT_EQ(parse({"--help"}).action, CommandAction::help);
+  EXPECT_EQ(parse({"-V"}).action, CommandAction::version);
+}
+
+TEST(Config, FileThenFlagsWin) {
+  const std::string path = ::testing::TempDir() + "/rsd-config-test.json";
+  std::ofstream(path) << R"({"domains":[1,2],"http":"127.0.0.1:9001","usb":false,)"
+                         R"("participant-name":"from-file","cyclonedds-config":"<CycloneDDS/>"})";
+  auto c = parse({"--config", path.c_str(), "--domain", "3"}).config;
+  EXPECT_EQ(c.domains, (std::vector<int>{3}));
+  EXPECT_EQ(c.http_port, 9001);
+  EXPECT_FALSE(c.usb);
+  EXPECT_EQ(c.participant_name, "from-file");
+  EXPECT_EQ(c.cyclonedds_config, "<CycloneDDS/>");
+  EXPECT_EQ(c.config_file, path);
+}
+
+TEST(Config, BadFilesAreClearErrors) {
+  EXPECT_THROW(parse({"--config", "/nonexistent/rs-discoveryd.json"}), ConfigError);
+  const std::string path = ::testing::TempDir() + "/rsd-config-bad.json";
+  for (const char* text : {"{", "[]", R"({"domains":[]})", R"({"domains":[999]})", R"({"domain":[1]})",
+                           R"({"usb":"yes"})", R"({"http":5})"}) {
+    std::ofstream(path) << text;
+    EXPECT_THROW(parse({"--config", path.c_str()}), ConfigError) << text;
+  }
+}
+
+TEST(Config, DefaultSocketPathFollowsRuntimeDirectory) {
+  setenv("RUNTIME_DIRECTORY", "/run/rs-discoveryd:/run/other", 1);
+  EXPECT_EQ(rsd::default_socket_path(), "/run/rs-discoveryd/api.sock");
+  unsetenv("RUNTIME_DIRECTORY");
+}
