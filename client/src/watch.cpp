@@ -170,22 +170,31 @@ void WatchCore::connect_once(bool& connected) {
   std::exception_ptr inner;  // thrown inside the stream's callbacks, rethrown here
   detail::SseParser parser([this](detail::SseMessage&& m) { handle(m); });
   std::string last;
+  bool list_on_open = false;
   {
     std::lock_guard lock(mutex_);
     if (last_id_) last = std::to_string(*last_id_);
   }
+  if (last.empty()) {
+    // No point to resume from: take the table as it is now, and stream from the
+    // generation the list was taken at, so nothing in between is missed.
+    auto generation = relist(view_complete_ || options_.initial);
+    if (generation) {
+      last = std::to_string(*generation);
+    } else {
+      list_on_open = true;  // a daemon whose list has no generation: list once the stream is open
+    }
+  }
+  std::string path = "/v1/events";
+  if (auto q = detail::devices_path(options_.filter).find('?'); q != std::string::npos)
+    path += detail::devices_path(options_.filter).substr(q);
   stream_.stream(
-      "/v1/events", last,
+      path, last,
       [&] {
         try {
           connected = true;
           status(true, "connected to " + stream_.endpoint().to_string());
-          bool resuming = !last.empty();
-          if (!resuming) {
-            // No point to resume from: take the table as it is now. The stream is
-            // already open, so nothing that happens from here on is missed.
-            relist(view_complete_ || options_.initial);
-          }
+          if (list_on_open) relist(view_complete_ || options_.initial);
           first_result(nullptr);
           return !stop_;
         } catch (...) {
@@ -223,6 +232,13 @@ void WatchCore::handle(const detail::SseMessage& m) {
       last_id_ = id;  // none: the next reconnect re-lists
     }
     relist(true);
+    return;
+  }
+  if (m.event == "hello") {  // where a fresh stream starts
+    if (id) {
+      std::lock_guard lock(mutex_);
+      last_id_ = id;
+    }
     return;
   }
   Event::Type type;
@@ -275,8 +291,11 @@ void WatchCore::apply(Event::Type type, json doc, std::uint64_t id, bool synthet
   sink_(std::move(out));
 }
 
-void WatchCore::relist(bool emit) {
-  json reply = lister_.get_json("/v1/devices");
+std::optional<std::uint64_t> WatchCore::relist(bool emit) {
+  json reply = lister_.get_json(detail::devices_path(options_.filter));
+  std::optional<std::uint64_t> generation;
+  if (auto g = reply.find("generation"); g != reply.end() && g->is_number_unsigned())
+    generation = g->get<std::uint64_t>();
   auto list = reply.find("devices");
   if (list == reply.end() || !list->is_array())
     throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd at " +
@@ -292,11 +311,12 @@ void WatchCore::relist(bool emit) {
   std::vector<json> gone;
   {
     std::lock_guard lock(mutex_);
+    if (generation) last_id_ = std::max(last_id_.value_or(0), *generation);
     at = last_id_.value_or(0);
     if (!emit) {
       known_ = std::move(fresh);
       view_complete_ = true;
-      return;
+      return generation;
     }
     for (const auto& [key, doc] : known_)
       if (!fresh.count(key)) gone.push_back(doc);
@@ -304,6 +324,7 @@ void WatchCore::relist(bool emit) {
   }
   for (auto& doc : gone) apply(Event::Type::removed, std::move(doc), at, true);
   for (auto& [key, doc] : fresh) apply(Event::Type::added, std::move(doc), at, true);
+  return generation;
 }
 
 // ---- Watch ---------------------------------------------------------------------------

@@ -41,7 +41,9 @@ class WatchCore {
   void connect_once(bool& connected);
   void handle(const detail::SseMessage& message);
   void apply(Event::Type type, nlohmann::json doc, std::uint64_t id, bool synthetic);
-  void relist(bool emit);
+  // Lists the devices into the view (reporting the difference when `emit`); returns
+  // the generation the list was taken at, when the daemon tells it.
+  std::optional<std::uint64_t> relist(bool emit);
   void status(bool connected, const std::string& message);
   void first_result(std::exception_ptr error);
 
