@@ -196,14 +196,20 @@ class RealddsServer:
         for info in devices:
             args += ["--device", json.dumps(info)]
         self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-        line = self.proc.stdout.readline()
-        assert line, "realdds server did not start"
-        self.hello = json.loads(line)
+        self.hello = self._reply()
+
+    def _reply(self):
+        # realdds logs to stdout too ("-E- ..."): the tool's replies are the JSON lines.
+        while True:
+            line = self.proc.stdout.readline()
+            assert line, "realdds server exited"
+            if line.startswith("{"):
+                return json.loads(line)
 
     def command(self, **msg):
         self.proc.stdin.write(json.dumps(msg) + "\n")
         self.proc.stdin.flush()
-        reply = json.loads(self.proc.stdout.readline())
+        reply = self._reply()
         assert reply.get("ok"), reply
         return reply
 

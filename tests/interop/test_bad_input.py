@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from conftest import device_info, wait_for
+from conftest import EventStream, device_info, wait_for
 
 RAW_WRITER = os.environ["RSD_RAW_WRITER"]
 JSON, CBOR, CUSTOM = 0, 1, 2
@@ -83,6 +83,31 @@ BAD = [
      cbor_text(b"topic-root") + cbor_text(b"realsense/X_4")),
     ("custom-format", CUSTOM, b'{"name": "x", "topic-root": "realsense/X_5"}'),
 ]
+
+
+def test_changed_device_info_updates_and_emits_changed(free_domain, daemon):
+    """realdds sends one device-info per device_server, so a changed one (recovery
+    toggling as the camera reboots into its recovery firmware) is written raw."""
+    d = daemon([free_domain])
+    writer = RawWriter(free_domain)
+    sync(d, writer)
+    info = device_info(1)
+    writer.write(JSON, json.dumps(info).encode())
+    wait_for(lambda: len(d.devices()) == 1, what="device listed")
+    first_seen = d.devices()[0]["first-seen"]
+    events = EventStream(d)
+    writer.write(JSON, json.dumps(dict(info, recovery=True)).encode())
+    ev = events.next()
+    assert ev["event"] == "changed" and ev["json"]["recovery"] is True
+    dev = d.devices()[0]
+    assert dev["recovery"] is True and dev["first-seen"] == first_seen
+    # The same message again is no news: no event, only last-seen moves.
+    writer.write(JSON, json.dumps(dict(info, recovery=True)).encode())
+    writer.write(JSON, json.dumps(info).encode())
+    ev = events.next()
+    assert ev["event"] == "changed" and ev["json"]["recovery"] is False
+    events.close()
+    writer.close()
 
 
 def test_bad_input_is_dropped_counted_logged_and_harmless(free_domain, daemon, realdds_server):

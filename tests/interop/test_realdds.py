@@ -88,21 +88,6 @@ def test_killed_server_vanishes_within_lease_and_comes_back(free_domain, daemon,
     events.close()
 
 
-def test_changed_device_info_updates_and_emits_changed(free_domain, daemon, realdds_server):
-    info = device_info(1)
-    server = realdds_server(free_domain, [info])
-    d = daemon([free_domain])
-    wait_for(lambda: len(d.devices()) == 1, what="device listed")
-    first_seen = d.devices()[0]["first-seen"]
-    events = EventStream(d)
-    server.command(cmd="broadcast", info=dict(info, recovery=True))
-    ev = events.next()
-    assert ev["event"] == "changed" and ev["json"]["recovery"] is True
-    dev = d.devices()[0]
-    assert dev["recovery"] is True and dev["first-seen"] == first_seen
-    events.close()
-
-
 def test_two_domains_watched_and_an_unconfigured_one_ignored(domains, daemon, realdds_server):
     a, b, c = domains.take(), domains.take(), domains.take()
     realdds_server(a, [device_info(1)])
