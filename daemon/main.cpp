@@ -4,6 +4,9 @@
 #include "dds/domain_session.hpp"
 #include "log/log.hpp"
 #include "table/shared_table.hpp"
+#ifdef RSD_HAVE_USB  // usb (issue 3): local cameras
+#include "usb/usb_source.hpp"
+#endif
 
 #include <poll.h>
 #include <signal.h>
@@ -85,6 +88,14 @@ int main(int argc, char** argv) {
     }
   }
 
+#ifdef RSD_HAVE_USB  // usb (issue 3): local cameras; without USB access it logs why and DDS carries on
+  std::unique_ptr<rsd::usb::UsbSource> usb;
+  if (config.usb) {
+    usb = std::make_unique<rsd::usb::UsbSource>(table);
+    usb->start();
+  }
+#endif
+
   rsd::api::StatusSources status;
   status.version = RSD_VERSION;
   status.domains = [&sessions] {
@@ -143,6 +154,9 @@ int main(int argc, char** argv) {
   // Streams first (they wait on the table), then listeners, then DDS.
   table.close();
   api.stop();
+#ifdef RSD_HAVE_USB  // usb (issue 3)
+  if (usb) usb->stop();
+#endif
   for (auto& s : sessions) s->stop();
   close(signal_fd);
   return 0;
