@@ -9,6 +9,7 @@
 #endif
 
 #include <poll.h>
+#include <sys/stat.h>
 #include <signal.h>
 #include <sys/signalfd.h>
 #include <unistd.h>
@@ -41,6 +42,15 @@ std::uint64_t first_generation() {
   using namespace std::chrono;
   return static_cast<std::uint64_t>(
       duration_cast<microseconds>(system_clock::now().time_since_epoch()).count());
+}
+
+// The default socket lives in a directory of its own (/run/rs-discoveryd) that
+// systemd makes for the service; started by hand, the daemon makes it itself.
+void make_socket_directory(const std::string& socket_path) {
+  const auto slash = socket_path.rfind('/');
+  if (slash == std::string::npos || slash == 0) return;
+  const std::string dir = socket_path.substr(0, slash);
+  if (mkdir(dir.c_str(), 0755) == 0) rsd::log::info("created " + dir);
 }
 
 }  // namespace
@@ -106,6 +116,7 @@ int main(int argc, char** argv) {
   rsd::api::ApiServer api(table, status);
   rsd::api::ApiOptions api_options;
   api_options.unix_socket = config.socket_path;
+  if (!config.socket_path.empty()) make_socket_directory(config.socket_path);
   api_options.http_host = config.http_host;
   api_options.http_port = config.http_port;
   try {

@@ -1,0 +1,94 @@
+#!/usr/bin/env bash
+# rs-discoveryd developer entry point: the two commands the README gives.
+#
+#   ./dev.sh run    install what is missing, build, run the daemon in the foreground
+#                   on its embedded defaults (domain 0, HTTP on 127.0.0.1:8035,
+#                   Unix socket under the runtime directory); extra arguments go
+#                   to the daemon, e.g. ./dev.sh run --domain 5
+#   ./dev.sh test   install what is missing, build (plain, and with AddressSanitizer
+#                   and UBSan), and run the whole test suite with ctest on both
+#
+# Needs Debian bookworm (or newer) and root, or sudo, for apt-get.
+set -euo pipefail
+cd "$(dirname "$0")"
+ROOT=$PWD
+
+DEB_PACKAGES=(
+  # build
+  build-essential cmake ninja-build pkg-config git
+  cyclonedds-dev cyclonedds-tools libusb-1.0-0-dev nlohmann-json3-dev libcpp-httplib-dev
+  libsystemd-dev googletest libgtest-dev libgmock-dev
+  # tests: a Python for the harnesses and the real realdds peer (pyrealsense2 needs libusb)
+  python3 python3-venv python3-pip python3-gi curl libusb-1.0-0 iproute2
+  # USB tests with emulated devices
+  umockdev libumockdev-dev gir1.2-umockdev-1.0
+  # systemd tools (systemd-socket-activate, systemd-analyze) and Debian packaging
+  systemd debhelper devscripts lintian fakeroot dpkg-dev
+)
+
+say() { printf '\n==> %s\n' "$*"; }
+
+as_root() { if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi; }
+
+install_packages() {
+  local missing=()
+  for p in "${DEB_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  if [ ${#missing[@]} -gt 0 ]; then
+    say "installing Debian packages: ${missing[*]}"
+    as_root apt-get update -q
+    DEBIAN_FRONTEND=noninteractive as_root apt-get install -y -q --no-install-recommends "${missing[@]}"
+  fi
+}
+
+python_env() {
+  # Debian's python3 with its site-packages visible: the umockdev tests need its GI bindings.
+  if [ ! -x .venv/bin/python ]; then
+    say "creating the test Python environment in .venv"
+    /usr/bin/python3 -m venv --system-site-packages .venv
+  fi
+  if ! cmp -s tests/requirements.txt .venv/.requirements 2>/dev/null; then
+    say "installing Python test requirements"
+    .venv/bin/pip install -q --disable-pip-version-check -r tests/requirements.txt
+    cp tests/requirements.txt .venv/.requirements
+  fi
+}
+
+build() {  # build DIR [cmake args...]
+  local dir=$1
+  shift
+  say "building in $dir"
+  cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRSD_WERROR=ON "$@" >/dev/null
+  cmake --build "$dir" -j"$(nproc)"
+}
+
+case "${1:-}" in
+  run)
+    shift
+    install_packages
+    build build
+    say "starting rs-discoveryd (Ctrl-C stops it)"
+    exec build/daemon/rs-discoveryd "$@"
+    ;;
+  test)
+    install_packages
+    python_env
+    build build
+    build build-asan -DRSD_SANITIZE=ON
+    status=0
+    say "test suite, plain build"
+    ctest --test-dir build -j2 --output-on-failure --timeout 600 || status=1
+    say "test suite, AddressSanitizer + UBSan build"
+    # The suite's own leak checks are the daemon's exit codes; LSan needs ptrace,
+    # which sandboxes often refuse, and it would only report libraries' caches.
+    ASAN_OPTIONS=detect_leaks=0:abort_on_error=0:halt_on_error=1 \
+    UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+      ctest --test-dir build-asan -j2 --output-on-failure --timeout 900 || status=1
+    exit $status
+    ;;
+  *)
+    sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
+    exit 2
+    ;;
+esac
