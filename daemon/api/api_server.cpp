@@ -100,7 +100,7 @@ struct ApiServer::Impl {
   void handle_metrics(const httplib::Request& req, httplib::Response& res);
   void handle_events(const httplib::Request& req, httplib::Response& res);
 
-  void launch(std::unique_ptr<Listener> server, std::string name);
+  void launch(std::unique_ptr<Listener> server, std::string name, bool adopted);
   void start(const ApiOptions& opts);
   void stop();
 };
@@ -364,7 +364,7 @@ void ApiServer::Impl::handle_events(const httplib::Request& req, httplib::Respon
       });
 }
 
-void ApiServer::Impl::launch(std::unique_ptr<Listener> server, std::string name) {
+void ApiServer::Impl::launch(std::unique_ptr<Listener> server, std::string name, bool adopted) {
   Slot slot;
   slot.address = local_address(server->fd());
   slot.name = std::move(name);
@@ -376,6 +376,10 @@ void ApiServer::Impl::launch(std::unique_ptr<Listener> server, std::string name)
   // stop() is a no-op on a server that is not running yet; wait, so a stop()
   // right after start() cannot be lost. The socket already listens (bind_to_port
   // does listen(2)), so clients connecting meanwhile just queue.
+  // httplib listens with a backlog of 5, which a burst of local clients overflows
+  // (a Unix-socket connect then fails with EAGAIN); calling listen(2) again only
+  // raises it. Not for inherited sockets: their backlog is systemd's setting.
+  if (!adopted) ::listen(raw->fd(), SOMAXCONN);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
   while (!raw->is_running() && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -411,7 +415,7 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
         chmod(socket_path.c_str(), 0660);
         where = "unix socket " + socket_path;
       }
-      launch(std::move(svr), where);
+      launch(std::move(svr), where, opts.inherited_unix_fd >= 0);
       log::info("api: listening on " + where);
     }
 
@@ -448,7 +452,7 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
         bound_http_port = ntohs(reinterpret_cast<const sockaddr_in6&>(addr.storage).sin6_port);
       if (opts.http_port == 0 && opts.inherited_http_fd < 0)
         where = "http " + opts.http_host + ":" + std::to_string(bound_http_port);
-      launch(std::move(svr), where);
+      launch(std::move(svr), where, opts.inherited_http_fd >= 0);
       log::info("api: listening on " + where);
     }
   } catch (...) {
