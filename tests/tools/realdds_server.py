@@ -16,6 +16,7 @@ import argparse
 import gc
 import json
 import sys
+import time
 
 import pyrealsense2.pyrealdds as dds
 
@@ -43,7 +44,9 @@ def main():
     for text in args.device:
         info = json.loads(text)
         servers[info["topic-root"]] = make_server(participant, info)
-    print(json.dumps({"ok": True, "ready": True, "guid": str(participant.guid())}), flush=True)
+    # "t": CLOCK_MONOTONIC right after the last broadcast, for latency benchmarks.
+    print(json.dumps({"ok": True, "ready": True, "t": time.monotonic(), "guid": str(participant.guid())}),
+          flush=True)
 
     for line in sys.stdin:
         line = line.strip()
@@ -66,7 +69,7 @@ def main():
                 break
             else:
                 raise ValueError(f"unknown command {cmd}")
-            print(json.dumps({"ok": True}), flush=True)
+            print(json.dumps({"ok": True, "t": time.monotonic()}), flush=True)
         except Exception as e:  # reported to the test, which decides
             print(json.dumps({"ok": False, "error": repr(e)}), flush=True)
     servers.clear()
