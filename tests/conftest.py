@@ -167,8 +167,8 @@ def daemon(tmp_path):
     """daemon(domains=[..], extra=[..], wait=True) -> Daemon, stopped after the test."""
     started = []
 
-    def start(domains, extra=(), wait=True, http=True, env=None):
-        sock = os.path.join(tmp_path, f"api-{len(started)}.sock")
+    def start(domains, extra=(), wait=True, http=True, env=None, socket=None):
+        sock = socket or os.path.join(tmp_path, f"api-{len(started)}.sock")
         port = free_port() if http else None
         args = []
         for d in domains:
