@@ -108,11 +108,21 @@ Parsed parse_device_info(std::int32_t format, std::span<const std::uint8_t> data
     if (text.find('\0') != std::string_view::npos) return Rejected{"not-json", "NUL inside JSON text"};
     if (text.empty()) return Rejected{"empty", "only NUL bytes"};
     if (!is_valid_utf8(text)) return Rejected{"invalid-utf8", "JSON text is not UTF-8"};
-    ok = json::sax_parse(text.begin(), text.end(), &sax, nlohmann::json::input_format_t::json, true);
+    try {
+      ok = json::sax_parse(text.begin(), text.end(), &sax, nlohmann::json::input_format_t::json, true);
+    } catch (const json::exception&) {
+      ok = false;
+    }
     if (sax.too_deep()) return Rejected{"too-deep", "nesting over " + std::to_string(kMaxDepth)};
     if (!ok) return Rejected{"not-json", "JSON text does not parse"};
   } else {
-    ok = json::sax_parse(data.begin(), data.end(), &sax, nlohmann::json::input_format_t::cbor, true);
+    // The reader throws, rather than reporting, on some inputs (an array header
+    // claiming 2^62 elements); on a DDS listener thread that would end the daemon.
+    try {
+      ok = json::sax_parse(data.begin(), data.end(), &sax, nlohmann::json::input_format_t::cbor, true);
+    } catch (const json::exception&) {
+      ok = false;
+    }
     if (sax.too_deep()) return Rejected{"too-deep", "nesting over " + std::to_string(kMaxDepth)};
     if (!ok) return Rejected{"bad-cbor", "CBOR does not decode"};
     if (!all_strings_utf8(doc)) return Rejected{"invalid-utf8", "CBOR text string is not UTF-8"};

@@ -100,6 +100,16 @@ TEST(DeviceInfo, CborWithInvalidUtf8TextIsRejected) {
   EXPECT_EQ(reason(parse_device_info(1, cbor)), "invalid-utf8");
 }
 
+// Regression (found by fuzz_device_info): a CBOR array header claiming an
+// enormous length made nlohmann throw out_of_range out of the parser, which on
+// a DDS listener thread would have terminated the daemon.
+TEST(DeviceInfo, CborArrayWithEnormousLengthIsRejectedNotThrown) {
+  std::vector<std::uint8_t> cbor = {0x9B, 0x63, 0x61, 0x62, 0x63, 0x61, 0x62, 0x63, 0x61, 0x00};
+  EXPECT_EQ(reason(parse_device_info(1, cbor)), "bad-cbor");
+  std::vector<std::uint8_t> map = {0xBB, 0x7F, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF};
+  EXPECT_EQ(reason(parse_device_info(1, map)), "bad-cbor");
+}
+
 TEST(DeviceInfo, EveryReasonIsDocumented) {
   auto b = bytes("nope");
   const std::string r = reason(parse_device_info(0, b));
