@@ -227,13 +227,23 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   return milliseconds(250);
 }
 
+// Cyclone calls these from its own (C) threads: an exception must not cross
+// back into it, so whatever slipped through is logged and the sample dropped.
 void DomainSession::on_data_available(dds_entity_t reader, void* arg) {
-  static_cast<DomainSession*>(arg)->take_samples(reader);
+  try {
+    static_cast<DomainSession*>(arg)->take_samples(reader);
+  } catch (const std::exception& e) {
+    log::error(std::string("device-info listener: ") + e.what());
+  }
 }
 
 void DomainSession::on_subscription_matched(dds_entity_t reader,
                                             dds_subscription_matched_status_t status, void* arg) {
-  static_cast<DomainSession*>(arg)->handle_matched(reader, status);
+  try {
+    static_cast<DomainSession*>(arg)->handle_matched(reader, status);
+  } catch (const std::exception& e) {
+    log::error(std::string("subscription-matched listener: ") + e.what());
+  }
 }
 
 void DomainSession::take_samples(dds_entity_t reader) {
@@ -248,8 +258,12 @@ void DomainSession::take_samples(dds_entity_t reader) {
       const auto& info = infos[static_cast<std::size_t>(i)];
       if (!info.valid_data) continue;  // a writer's unregister/dispose: matching tells us that
       const auto* msg = static_cast<const realdds_topics_raw_flexible*>(samples[static_cast<std::size_t>(i)]);
-      handle_sample(reader, info.publication_handle, static_cast<std::int32_t>(msg->data_format),
-                    std::span<const std::uint8_t>(msg->data._buffer, msg->data._length));
+      try {  // one bad sample must not keep the loan or the rest of the batch
+        handle_sample(reader, info.publication_handle, static_cast<std::int32_t>(msg->data_format),
+                      std::span<const std::uint8_t>(msg->data._buffer, msg->data._length));
+      } catch (const std::exception& e) {
+        log::error(std::string("device-info sample dropped: ") + e.what());
+      }
     }
     dds_return_loan(reader, samples.data(), n);
     if (static_cast<std::size_t>(n) < kBatch) break;
