@@ -57,7 +57,7 @@ def get_json(target, path, expect=200):
     return json.loads(body)
 
 
-def raw(target, data, timeout=3.0):
+def raw(target, data, timeout=3.0, half_close=True):
     """Sends bytes as they are and returns whatever comes back until EOF/timeout."""
     family = socket.AF_INET if isinstance(target, tuple) else socket.AF_UNIX
     with socket.socket(family, socket.SOCK_STREAM) as s:
@@ -65,7 +65,8 @@ def raw(target, data, timeout=3.0):
         s.connect(target)
         try:
             s.sendall(data)
-            s.shutdown(socket.SHUT_WR)
+            if half_close:
+                s.shutdown(socket.SHUT_WR)
         except OSError:
             pass  # the server may hang up mid-send on an oversized request
         out = b""

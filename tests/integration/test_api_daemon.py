@@ -1,0 +1,176 @@
+"""The API of the real rs-discoveryd: curl over the Unix socket and TCP, error
+bodies, health, metrics, the event stream, and responses checked against
+proto/openapi.yaml, with real realdds servers (pyrealsense2) as the devices."""
+import json
+import os
+import signal
+import socket
+import subprocess
+import time
+
+from api_util import (SSEStream, curl, get_json, metric, parse_metrics, request, spec, validate_response,
+                      wait_for)
+from conftest import DAEMON, device_info
+
+
+def test_openapi_spec_is_valid():
+    from openapi_spec_validator import validate
+    validate(spec())
+
+
+def test_empty_daemon_over_curl_unix_and_tcp(daemon, free_domain):
+    d = daemon([free_domain])
+    for target in (d.socket, ("127.0.0.1", d.port)):
+        code, text = curl(target, "/v1/devices")
+        assert code == 200
+        body = json.loads(text)
+        assert body["devices"] == [] and isinstance(body["generation"], int)
+        validate_response("/v1/devices", 200, body)
+
+        code, text = curl(target, "/healthz")
+        health = json.loads(text)
+        assert code == 200 and health["status"] == "ok" and health["devices"] == 0 and health["version"]
+        validate_response("/healthz", 200, health)
+
+        code, text = curl(target, "/v1/domains")
+        domains = json.loads(text)
+        validate_response("/v1/domains", 200, domains)
+        assert [x["domain"] for x in domains["domains"]] == [free_domain]
+        assert domains["domains"][0]["state"] == "running" and domains["domains"][0]["participant-guid"]
+
+
+def test_error_bodies(daemon, free_domain):
+    d = daemon([free_domain])
+    for target in (d.socket, ("127.0.0.1", d.port)):
+        code, text = curl(target, "/v1/devices/dds-0-realsense.nothing")
+        assert code == 404
+        err = json.loads(text)
+        assert err == {"error": "no device with id 'dds-0-realsense.nothing'", "status": 404}
+        validate_response("/v1/devices/{id}", 404, err)
+
+        code, text = curl(target, "/no/such/path")
+        assert code == 404 and json.loads(text)["status"] == 404
+
+        code, text = curl(target, "/v1/devices?domain=999")
+        assert code == 400 and "domain" in json.loads(text)["error"]
+        validate_response("/v1/devices", 400, json.loads(text))
+
+        for method in ("POST", "PUT", "DELETE", "PATCH"):
+            code, text = curl(target, "/v1/devices", "-X", method)
+            assert code == 405, (method, text)
+            validate_response("/v1/devices", 405, json.loads(text))
+        status, headers, _ = request(target, "/v1/domains", method="DELETE")
+        assert status == 405 and headers["allow"] == "GET, HEAD"
+
+
+def test_metrics_parse(daemon, free_domain):
+    d = daemon([free_domain])
+    curl(d.socket, "/nope")
+    status, headers, body = request(d.socket, "/metrics")
+    assert status == 200 and headers["content-type"].startswith("text/plain; version=0.0.4")
+    m = parse_metrics(body.decode())
+    assert metric(m, "rsd_devices", domain=str(free_domain)) == 0
+    assert metric(m, "rsd_messages_accepted_total", domain=str(free_domain)) == 0
+    assert metric(m, "rsd_events_sent_total") == 0
+    assert metric(m, "rsd_domain_up", domain=str(free_domain), state="running") == 1
+    wait_for(lambda: metric(parse_metrics(request(d.socket, "/metrics")[2].decode()),
+                            "rsd_api_requests_total", status="404") == 1, what="the 404 counted")
+
+
+def test_real_device_listed_validated_and_streamed(daemon, free_domain, realdds_server):
+    d = daemon([free_domain])
+    stream = SSEStream(d.socket)
+    hello = stream.next_event()
+    assert hello["event"] == "hello"
+
+    info = device_info(1)
+    server = realdds_server(free_domain, [info], name="api-test-server")
+    added = stream.next_event(timeout=15)
+    assert added["event"] == "added" and int(added["id"]) > int(hello["id"])
+    dev = added["json"]
+    assert dev["serial"] == info["serial"] and dev["topic-root"] == info["topic-root"]
+    assert dev["domain"] == free_domain and dev["source"] == "dds"
+    assert dev["server"]["participant-name"] == "api-test-server"
+
+    listing = get_json(d.socket, "/v1/devices")
+    validate_response("/v1/devices", 200, listing)
+    assert [x["id"] for x in listing["devices"]] == [dev["id"]]
+    for key, value in info.items():
+        assert listing["devices"][0][key] == value, key  # device-info kept verbatim
+    one = get_json(("127.0.0.1", d.port), "/v1/devices/" + dev["id"])
+    validate_response("/v1/devices/{id}", 200, one)
+    assert one["id"] == dev["id"]
+
+    ids = lambda q: [x["id"] for x in get_json(d.socket, "/v1/devices" + q)["devices"]]
+    assert ids(f"?domain={free_domain}") == [dev["id"]]
+    assert ids(f"?domain={(free_domain % 232) + 1}") == []
+    assert ids("?product-line=D400&source=dds") == [dev["id"]]
+    assert ids("?source=usb") == []
+
+    domains = get_json(d.socket, "/v1/domains")
+    validate_response("/v1/domains", 200, domains)
+    assert domains["domains"][0]["devices"] == 1 and domains["domains"][0]["accepted"] >= 1
+    health = get_json(d.socket, "/healthz")
+    assert health["devices"] == 1
+    m = parse_metrics(request(d.socket, "/metrics")[2].decode())
+    assert metric(m, "rsd_devices", domain=str(free_domain)) == 1
+    assert metric(m, "rsd_events_sent_total") >= 1
+
+    # Miss the removal while disconnected, then resume from the last id seen.
+    stream.close()
+    server.command(cmd="disconnect", **{"topic-root": info["topic-root"]})
+    wait_for(lambda: get_json(d.socket, "/v1/devices")["devices"] == [], timeout=10, what="device removed")
+    resumed = SSEStream(("127.0.0.1", d.port), headers={"Last-Event-ID": added["id"]})
+    removed = resumed.next_event()
+    assert removed["event"] == "removed" and removed["json"]["id"] == dev["id"]
+    assert int(removed["id"]) > int(added["id"])
+    resumed.close()
+
+
+def test_events_keepalive(daemon, free_domain):
+    d = daemon([free_domain])
+    stream = SSEStream(d.socket)
+    stream.next_event()
+    # The daemon's default interval is 15 s (the harness test covers short ones).
+    comment = stream.next(timeout=20, comments=True)
+    assert comment == {"comment": "keep-alive"}
+    stream.close()
+
+
+def test_sigterm_ends_streams_and_removes_socket(daemon, free_domain):
+    d = daemon([free_domain])
+    streams = [SSEStream(d.socket), SSEStream(("127.0.0.1", d.port))]
+    for s in streams:
+        s.next_event()
+    idle = socket.create_connection(("127.0.0.1", d.port))
+    t0 = time.monotonic()
+    d.signal(signal.SIGTERM)
+    d.proc.wait(5)
+    elapsed = time.monotonic() - t0
+    assert d.proc.returncode == 0, d.log()[-2000:]
+    assert elapsed < 1.0, elapsed
+    for s in streams:
+        assert s.next(timeout=2) is None
+    idle.close()
+    assert not os.path.exists(d.socket)
+
+
+def test_stale_socket_replaced_live_daemon_refused(daemon, free_domain, tmp_path):
+    path = os.path.join(tmp_path, "shared.sock")
+    stale = socket.socket(socket.AF_UNIX)
+    stale.bind(path)
+    stale.close()  # what a SIGKILLed daemon leaves behind
+    first = daemon([free_domain], extra=["--socket", path], wait=False)
+    first.socket = path
+    first.wait_ready()
+    assert os.stat(path).st_mode & 0o777 == 0o660
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    second = subprocess.run([DAEMON, "--domain", str(free_domain), "--socket", path, "--http", f"127.0.0.1:{port}",
+                             "--no-usb"], capture_output=True, text=True, timeout=10)
+    assert second.returncode != 0
+    assert "already running" in second.stderr, second.stderr
+    # The first daemon keeps its socket and keeps serving.
+    assert get_json(path, "/healthz")["status"] == "ok"
