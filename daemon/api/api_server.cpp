@@ -103,6 +103,7 @@ struct ApiServer::Impl {
   void launch(std::unique_ptr<Listener> server, std::string name, bool adopted);
   void start(const ApiOptions& opts);
   void stop();
+  void stop_locked();
 };
 
 void ApiServer::Impl::configure(Listener& svr) {
@@ -117,6 +118,8 @@ void ApiServer::Impl::configure(Listener& svr) {
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
   });
   svr.set_payload_max_length(kMaxPayload);
+  // httplib's default of 5 requests per connection makes polling clients reconnect needlessly.
+  svr.set_keep_alive_max_count(1000);
   svr.set_read_timeout(5, 0);
   svr.set_write_timeout(5, 0);
 
@@ -383,7 +386,9 @@ void ApiServer::Impl::launch(std::unique_ptr<Listener> server, std::string name,
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
   while (!raw->is_running() && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  slots.push_back(std::move(slot));
+  const bool running = raw->is_running();
+  slots.push_back(std::move(slot));  // stop_locked() joins its thread either way
+  if (!running) throw std::runtime_error("API listener on " + slots.back().name + " failed to start");
 }
 
 void ApiServer::Impl::start(const ApiOptions& opts) {
@@ -456,10 +461,8 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
       log::info("api: listening on " + where);
     }
   } catch (...) {
-    started = true;  // so that stop() undoes what did start
-    lifecycle.unlock();
-    stop();
-    lifecycle.lock();
+    started = true;  // so that stop_locked() undoes what did start
+    stop_locked();
     throw;
   }
   started = true;
@@ -467,9 +470,19 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
 
 void ApiServer::Impl::stop() {
   std::lock_guard lock(lifecycle);
+  stop_locked();
+}
+
+void ApiServer::Impl::stop_locked() {
   if (!started) return;
   stopping = true;  // SSE providers see it within kStreamSlice and end their streams
   for (auto& s : slots) s.server->stop();
+  // Give streams the moment they need to end cleanly (a final empty chunk, so
+  // clients see an orderly end rather than a reset); the shutdown below
+  // would cut them anyway.
+  const auto drain_until = std::chrono::steady_clock::now() + 2 * kStreamSlice;
+  while (streams_open.load() > 0 && std::chrono::steady_clock::now() < drain_until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   // With the listeners closed no new connection arrives; wake the workers that
   // sit on idle keep-alive connections or slow clients.
   for (auto& s : slots) shutdown_accepted_connections(s.address);
