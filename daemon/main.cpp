@@ -3,6 +3,9 @@
 #include "config/config.hpp"
 #include "dds/domain_session.hpp"
 #include "log/log.hpp"
+#include "service/domain_set.hpp"
+#include "service/listen_sockets.hpp"
+#include "service/service.hpp"
 #include "table/shared_table.hpp"
 #ifdef RSD_HAVE_USB  // usb (issue 3): local cameras
 #include "usb/usb_source.hpp"
@@ -18,6 +21,7 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace {
@@ -83,20 +87,17 @@ int main(int argc, char** argv) {
   }
 
   rsd::SharedTable table(4096, first_generation());
-  std::vector<std::unique_ptr<rsd::dds::DomainSession>> sessions;
-  for (int domain : config.domains) {
-    rsd::dds::SessionOptions options;
-    options.domain = domain;
-    options.participant_name = config.participant_name;
-    options.cyclone_config = config.cyclonedds_config;
-    sessions.push_back(std::make_unique<rsd::dds::DomainSession>(table, options));
-    try {
-      sessions.back()->start();
-    } catch (const std::exception& e) {
-      rsd::log::error(e.what());
-      return 1;
-    }
+  rsd::dds::SessionOptions session_options;
+  session_options.participant_name = config.participant_name;
+  session_options.cyclone_config = config.cyclonedds_config;
+  rsd::service::DomainSet domains(table, session_options);
+  try {
+    domains.start(config.domains);
+  } catch (const std::exception& e) {
+    rsd::log::error(e.what());
+    return 1;
   }
+  rsd::service::Service service(table, domains, config, std::vector<std::string>(argv, argv + argc));
 
 #ifdef RSD_HAVE_USB  // usb (issue 3): local cameras; without USB access it logs why and DDS carries on
   std::unique_ptr<rsd::usb::UsbSource> usb;
@@ -108,35 +109,38 @@ int main(int argc, char** argv) {
 
   rsd::api::StatusSources status;
   status.version = RSD_VERSION;
-  status.domains = [&sessions] {
-    std::vector<rsd::DomainStatus> out;
-    for (const auto& s : sessions) out.push_back(s->status());
-    return out;
-  };
+  status.domains = [&domains] { return domains.status(); };
   rsd::api::ApiServer api(table, status);
   rsd::api::ApiOptions api_options;
   api_options.unix_socket = config.socket_path;
-  if (!config.socket_path.empty()) make_socket_directory(config.socket_path);
   api_options.http_host = config.http_host;
   api_options.http_port = config.http_port;
   try {
+    // Socket activation: systemd's sockets take the place of the configured ones.
+    const auto passed = rsd::service::take_listen_sockets();
+    for (const auto& note : passed.notes) rsd::log::info(note);
+    api_options.inherited_unix_fd = passed.unix_fd;
+    api_options.inherited_http_fd = passed.http_fd;
+    if (passed.unix_fd < 0 && !config.socket_path.empty()) make_socket_directory(config.socket_path);
     api.start(api_options);
   } catch (const std::exception& e) {
     rsd::log::error(e.what());
     return 1;
   }
+  service.api_listening();
   rsd::log::notice(std::string("rs-discoveryd ") + RSD_VERSION + " serving" +
-                   (config.socket_path.empty() ? "" : " on unix:" + config.socket_path) +
-                   (config.http_host.empty() ? ""
-                                             : " on http://" + config.http_host + ":" +
-                                                   std::to_string(config.http_port)));
+                   (api_options.inherited_unix_fd >= 0 ? " on the Unix socket from systemd"
+                    : config.socket_path.empty()       ? ""
+                                                       : " on unix:" + config.socket_path) +
+                   (api_options.inherited_http_fd >= 0 ? " on the HTTP socket from systemd"
+                    : config.http_host.empty()
+                        ? ""
+                        : " on http://" + config.http_host + ":" + std::to_string(api.http_port())));
 
   bool running = true;
   while (running) {
-    auto wait = std::chrono::milliseconds(1000);
     const auto now = Clock::now();
-    for (auto& s : sessions)
-      wait = std::min(wait, std::chrono::ceil<std::chrono::milliseconds>(s->tick(now)));
+    const auto wait = std::chrono::ceil<std::chrono::milliseconds>(std::min(domains.tick(now), service.tick(now)));
     pollfd pfd{signal_fd, POLLIN, 0};
     const int timeout = static_cast<int>(std::max<std::int64_t>(wait.count(), 1));
     if (poll(&pfd, 1, timeout) <= 0) continue;
@@ -146,16 +150,14 @@ int main(int argc, char** argv) {
       case SIGTERM:
       case SIGINT:
         rsd::log::notice("stopping on signal " + std::to_string(si.ssi_signo));
+        service.stopping();
         running = false;
         break;
+      case SIGHUP:
+        service.reload();
+        break;
       case SIGUSR1:
-        for (auto& s : sessions) {
-          try {
-            s->rebuild();
-          } catch (const std::exception& e) {
-            rsd::log::error(e.what());
-          }
-        }
+        domains.rebuild();
         break;
       default:
         break;
@@ -168,7 +170,7 @@ int main(int argc, char** argv) {
 #ifdef RSD_HAVE_USB  // usb (issue 3)
   if (usb) usb->stop();
 #endif
-  for (auto& s : sessions) s->stop();
+  domains.stop();
   close(signal_fd);
   return 0;
 }

@@ -476,7 +476,7 @@ void ApiServer::Impl::stop() {
 void ApiServer::Impl::stop_locked() {
   if (!started) return;
   stopping = true;  // SSE providers see it within kStreamSlice and end their streams
-  for (auto& s : slots) s.server->stop();
+  for (auto& s : slots) s.server->halt();  // inherited sockets stay systemd's, listening
   // Give streams the moment they need to end cleanly (a final empty chunk, so
   // clients see an orderly end rather than a reset); the shutdown below
   // would cut them anyway.

@@ -5,6 +5,7 @@
 #include <httplib.h>
 
 #include <sys/socket.h>
+#include <unistd.h>
 
 #include <string>
 
@@ -15,8 +16,30 @@ class Listener : public httplib::Server {
   // httplib only serves sockets it created itself; systemd hands us sockets that
   // are already bound and listening, so plant the fd where listen_after_bind()
   // expects its own.
-  void adopt(int fd) { svr_sock_ = fd; }
+  // An adopted socket is polled (idle interval) so that halt() can end the
+  // accept loop without shutdown(2).
+  void adopt(int fd) {
+    svr_sock_ = fd;
+    adopted_fd_ = fd;
+    set_idle_interval(0, 50000);
+  }
   int fd() const { return svr_sock_; }
+  // stop(), except for an adopted socket: httplib's stop() shutdown(2)s it, and
+  // that socket is shared with systemd, which keeps it listening for the next
+  // start: a shut-down socket would refuse every client from then on. The
+  // accept loop sees the socket gone within the idle interval; the fd is closed
+  // (never shut down) once the Listener goes, after that loop has ended.
+  void halt() {
+    if (adopted_fd_ < 0) stop();
+    else released_fd_ = svr_sock_.exchange(INVALID_SOCKET);
+  }
+  ~Listener() override {
+    if (released_fd_ >= 0) ::close(released_fd_);
+  }
+
+ private:
+  int adopted_fd_ = -1;
+  int released_fd_ = -1;
 };
 
 // Makes `path` free for bind(). A socket file left by a crashed daemon (nobody

@@ -1,0 +1,107 @@
+#include "service/domain_set.hpp"
+
+#include "log/log.hpp"
+
+#include <algorithm>
+#include <set>
+
+namespace rsd::service {
+
+DomainSet::DomainSet(SharedTable& table, dds::SessionOptions base) : table_(table), base_(std::move(base)) {}
+
+DomainSet::~DomainSet() { stop(); }
+
+std::unique_ptr<dds::DomainSession> DomainSet::make(int domain) const {
+  dds::SessionOptions options = base_;
+  options.domain = domain;
+  return std::make_unique<dds::DomainSession>(table_, options);
+}
+
+void DomainSet::start(const std::vector<int>& domains) {
+  for (int d : domains) {
+    if (sessions_.count(d)) continue;
+    auto session = make(d);
+    session->start();  // throws: the caller gives up
+    std::lock_guard lock(mutex_);
+    sessions_.emplace(d, std::move(session));
+  }
+}
+
+DomainSet::Change DomainSet::apply(const std::vector<int>& domains) {
+  Change change;
+  const std::set<int> wanted(domains.begin(), domains.end());
+  // Leave first: a domain dropped and another added in one reload never has
+  // both participants alive at once.
+  std::vector<std::unique_ptr<dds::DomainSession>> leaving;
+  {
+    std::lock_guard lock(mutex_);
+    for (auto it = sessions_.begin(); it != sessions_.end();) {
+      if (wanted.count(it->first)) {
+        ++it;
+        continue;
+      }
+      change.left.push_back(it->first);
+      leaving.push_back(std::move(it->second));
+      it = sessions_.erase(it);
+    }
+  }
+  for (auto& s : leaving) {
+    s->stop();            // DDS entities gone: no listener can add a device after this
+    s->forget_devices();  // then its devices leave the table
+    log::notice("domain " + std::to_string(s->domain()) + ": left (no longer configured)");
+  }
+  for (int d : wanted) {
+    if (sessions_.count(d)) continue;
+    auto session = make(d);
+    try {
+      session->start();
+    } catch (const std::exception& e) {
+      change.failed.push_back("domain " + std::to_string(d) + ": " + e.what());
+      log::error("domain " + std::to_string(d) + ": cannot join: " + e.what());
+      continue;
+    }
+    change.joined.push_back(d);
+    std::lock_guard lock(mutex_);
+    sessions_.emplace(d, std::move(session));
+  }
+  return change;
+}
+
+void DomainSet::rebuild() {
+  for (auto& [d, s] : sessions_) {
+    try {
+      s->rebuild();
+    } catch (const std::exception& e) {
+      log::error(e.what());
+    }
+  }
+}
+
+void DomainSet::stop() {
+  for (auto& [d, s] : sessions_) s->stop();
+}
+
+DomainSet::Clock::duration DomainSet::tick(Clock::time_point now) {
+  Clock::duration wait = std::chrono::seconds(1);
+  for (auto& [d, s] : sessions_) wait = std::min(wait, s->tick(now));
+  return wait;
+}
+
+std::vector<int> DomainSet::ids() const {
+  std::vector<int> out;
+  for (const auto& [d, s] : sessions_) out.push_back(d);
+  return out;
+}
+
+bool DomainSet::all_reading() const {
+  return std::all_of(sessions_.begin(), sessions_.end(), [](const auto& e) { return e.second->reading(); });
+}
+
+std::vector<DomainStatus> DomainSet::status() const {
+  std::lock_guard lock(mutex_);
+  std::vector<DomainStatus> out;
+  for (const auto& [d, s] : sessions_) out.push_back(s->status());
+  return out;
+}
+
+}  // namespace rsd::service

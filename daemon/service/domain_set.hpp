@@ -1,0 +1,67 @@
+// The DDS domains the daemon has joined: one DomainSession each. Start-up joins
+// the configured ones; a reload joins new ones and leaves removed ones while the
+// unchanged ones (and their devices) carry on untouched.
+#pragma once
+
+#include "dds/domain_session.hpp"
+#include "dds/domain_status.hpp"
+#include "table/shared_table.hpp"
+
+#include <chrono>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace rsd::service {
+
+class DomainSet {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  // `base` is the template for every session (participant name, Cyclone config,
+  // timings); its `domain` is replaced per session.
+  DomainSet(SharedTable& table, dds::SessionOptions base);
+  ~DomainSet();
+  DomainSet(const DomainSet&) = delete;
+  DomainSet& operator=(const DomainSet&) = delete;
+
+  // Start-up: joins every domain; throws std::runtime_error on the first that
+  // cannot be joined (the caller exits).
+  void start(const std::vector<int>& domains);
+
+  struct Change {
+    std::vector<int> joined, left;
+    std::vector<std::string> failed;  // "domain 7: why", for domains that could not be joined
+  };
+  // Reload: joins the listed domains not joined yet, leaves the joined ones not
+  // listed (their devices leave the table with them). A domain that cannot be
+  // joined is reported in `failed` and left out; the others go on.
+  Change apply(const std::vector<int>& domains);
+
+  void rebuild();  // every session's participant made anew (SIGUSR1)
+  void stop();     // leaves every domain; the table keeps what it has
+
+  // The sessions' timers; returns how soon it wants to be called again.
+  Clock::duration tick(Clock::time_point now);
+
+  // Main thread only (the one that changes the set).
+  std::vector<int> ids() const;
+  bool all_reading() const;  // every domain's reader exists (initial discovery done)
+
+  // Any thread (API workers).
+  std::vector<DomainStatus> status() const;
+
+ private:
+  std::unique_ptr<dds::DomainSession> make(int domain) const;
+
+  SharedTable& table_;
+  dds::SessionOptions base_;
+  // Only the main thread inserts or erases; it takes the mutex to do so, and
+  // other threads take it to read. The main thread reads without it.
+  mutable std::mutex mutex_;
+  std::map<int, std::unique_ptr<dds::DomainSession>> sessions_;
+};
+
+}  // namespace rsd::service

@@ -1,0 +1,166 @@
+#include "service/service.hpp"
+
+#include "log/log.hpp"
+
+#include <algorithm>
+
+namespace rsd::service {
+
+namespace {
+
+std::string join_ints(const std::vector<int>& v) {
+  std::string out;
+  for (int d : v) out += (out.empty() ? "" : ",") + std::to_string(d);
+  return out;
+}
+
+std::string join(const std::vector<std::string>& v, const char* sep) {
+  std::string out;
+  for (const auto& s : v) out += (out.empty() ? "" : sep) + s;
+  return out;
+}
+
+}  // namespace
+
+std::string status_text(std::string_view phase, std::size_t devices, const std::vector<int>& domains, bool usb,
+                        std::string_view note) {
+  std::string text;
+  if (!phase.empty()) text += std::string(phase) + ": ";
+  text += std::to_string(devices) + (devices == 1 ? " device" : " devices");
+  if (!domains.empty()) text += (domains.size() == 1 ? " on DDS domain " : " on DDS domains ") + join_ints(domains);
+  if (usb) text += domains.empty() ? " on USB" : " and USB";
+  if (!note.empty()) text += "; " + std::string(note);
+  return text;
+}
+
+Service::Service(const SharedTable& table, DomainSet& domains, Config config, std::vector<std::string> args)
+    : table_(table), domains_(domains), config_(std::move(config)), args_(std::move(args)) {
+  if (notifier_.active())
+    log::debug("service: notifying the service manager" +
+               (notifier_.watchdog() ? "; watchdog every " + std::to_string(notifier_.watchdog()->count()) + " us"
+                                     : std::string()));
+  last_status_ = current_status(false);
+  notifier_.send("STATUS=" + last_status_);
+}
+
+void Service::api_listening() { api_up_ = true; }
+
+bool Service::healthy(std::string* why) const {
+  if (table_.closed()) {
+    if (why) *why = "the device table is closed";
+    return false;
+  }
+  for (const auto& d : domains_.status()) {
+    if (d.state == "failed") {
+      if (why) *why = "domain " + std::to_string(d.domain) + " failed: " + d.error;
+      return false;
+    }
+  }
+  return true;
+}
+
+std::string Service::current_status(bool ready) {
+  const auto generation = table_.generation();
+  if (generation != counted_generation_) {
+    device_count_ = table_.snapshot().devices.size();
+    counted_generation_ = generation;
+  }
+  std::string note = note_;
+  std::string why;
+  if (!healthy(&why)) note += (note.empty() ? "" : "; ") + why;
+  return status_text(ready ? "" : reloading_ ? "reloading" : "starting", device_count_, domains_.ids(),
+                     config_.usb, note);
+}
+
+Service::Clock::duration Service::tick(Clock::time_point now) {
+  if (!ready_sent_ && api_up_ && domains_.all_reading()) {
+    ready_sent_ = true;
+    last_status_ = current_status(true);
+    notifier_.send("READY=1\nSTATUS=" + last_status_);
+    log::notice(std::string(reloading_ ? "reloaded: " : "ready: ") + last_status_);
+    reloading_ = false;
+  } else {
+    const std::string status = current_status(ready_sent_);
+    if (status != last_status_) {
+      last_status_ = status;
+      notifier_.send("STATUS=" + status);
+    }
+  }
+
+  Clock::duration wait = std::chrono::seconds(1);  // STATUS= follows the table within this
+  if (const auto interval = notifier_.watchdog()) {
+    if (now >= next_watchdog_) {
+      // Every half interval, as sd_watchdog_enabled(3) advises; the main loop
+      // being here at all is half of the health check.
+      std::string why;
+      if (healthy(&why)) {
+        notifier_.send("WATCHDOG=1");
+        unhealthy_logged_ = false;
+      } else if (!unhealthy_logged_) {
+        log::error("service: unhealthy, no longer feeding the watchdog: " + why);
+        unhealthy_logged_ = true;
+      }
+      next_watchdog_ = now + std::chrono::duration_cast<Clock::duration>(*interval / 2);
+    }
+    wait = std::min(wait, next_watchdog_ - now);
+  }
+  return wait;
+}
+
+void Service::reload() {
+  notifier_.send(reloading_message() + "\nSTATUS=reloading the configuration");
+  reloading_ = true;
+  ready_sent_ = false;  // READY=1 again once every domain of the new set reads
+  log::notice("reloading the configuration" +
+              (config_.config_file.empty() ? std::string() : " from " + config_.config_file));
+
+  std::vector<const char*> argv;
+  for (const auto& a : args_) argv.push_back(a.c_str());
+  CommandLine cl;
+  try {
+    cl = parse_command_line(static_cast<int>(argv.size()), argv.data());
+  } catch (const ConfigError& e) {
+    note_ = std::string("reload failed, still running the previous configuration: ") + e.what();
+    log::error(note_);
+    return;
+  }
+  const Config& next = cl.config;
+
+  log::Level level{};
+  if (log::parse_level(next.log_level, level)) log::set_level(level);
+  config_.log_level = next.log_level;
+
+  const auto change = domains_.apply(next.domains);
+  config_.domains = domains_.ids();
+  config_.config_file = next.config_file;
+
+  std::vector<std::string> restart_only;
+  if (next.socket_path != config_.socket_path) restart_only.push_back("socket");
+  if (next.http_host != config_.http_host || next.http_port != config_.http_port) restart_only.push_back("http");
+  if (next.usb != config_.usb) restart_only.push_back("usb");
+  if (next.participant_name != config_.participant_name) restart_only.push_back("participant-name");
+  if (next.cyclonedds_config != config_.cyclonedds_config) restart_only.push_back("cyclonedds-config");
+  if (!restart_only.empty())
+    log::warning("reload: " + join(restart_only, ", ") + " changed; that takes effect on restart");
+
+  note_ = change.failed.empty() ? "" : "reload could not join " + join(change.failed, "; ");
+  std::vector<std::string> what;
+  if (!change.joined.empty()) {
+    std::vector<std::string> j;
+    for (int d : change.joined) j.push_back(std::to_string(d));
+    what.push_back("joined domain(s) " + join(j, ","));
+  }
+  if (!change.left.empty()) {
+    std::vector<std::string> l;
+    for (int d : change.left) l.push_back(std::to_string(d));
+    what.push_back("left domain(s) " + join(l, ","));
+  }
+  log::notice("reload applied: " + (what.empty() ? std::string("no domain changes") : join(what, ", ")) +
+              "; domains now " + join_ints(config_.domains));
+}
+
+void Service::stopping() {
+  notifier_.send("STOPPING=1\nSTATUS=stopping");
+}
+
+}  // namespace rsd::service

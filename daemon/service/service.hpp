@@ -1,0 +1,67 @@
+// The daemon's side of the service-manager contract: READY=1 once every domain
+// reads and the API listens, STATUS= kept current, WATCHDOG=1 while healthy,
+// RELOADING=1/READY=1 around a configuration reload, STOPPING=1 at the end.
+// main.cpp calls these from its event loop; nothing here runs a thread.
+#pragma once
+
+#include "config/config.hpp"
+#include "service/domain_set.hpp"
+#include "service/notifier.hpp"
+#include "table/shared_table.hpp"
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rsd::service {
+
+// STATUS= text, e.g. "3 devices on DDS domains 0,5 and USB", with the phase
+// ("starting: ...") before it when not ready and `note` after it.
+std::string status_text(std::string_view phase, std::size_t devices, const std::vector<int>& domains, bool usb,
+                        std::string_view note);
+
+class Service {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  // `args` is the command line the daemon started with: a reload parses it
+  // again, so flags keep winning over the re-read config file.
+  Service(const SharedTable& table, DomainSet& domains, Config config, std::vector<std::string> args);
+
+  void api_listening();  // the last READY=1 condition besides the domains
+  // SIGHUP: re-reads the configuration and applies what can change live (the
+  // domains and the log level). An invalid configuration keeps the running one
+  // and says why, in the log and in STATUS=.
+  void reload();
+  void stopping();  // STOPPING=1
+
+  // Sends what is due (READY=1, STATUS=, WATCHDOG=1); returns how soon it wants
+  // to be called again.
+  Clock::duration tick(Clock::time_point now);
+
+  bool ready() const { return ready_sent_; }
+  bool healthy(std::string* why = nullptr) const;
+  const Config& config() const { return config_; }
+
+ private:
+  std::string current_status(bool ready);
+
+  const SharedTable& table_;
+  DomainSet& domains_;
+  Config config_;
+  std::vector<std::string> args_;
+  Notifier notifier_;
+
+  bool api_up_ = false;
+  bool ready_sent_ = false;  // false at start and during a reload: READY=1 is owed
+  bool reloading_ = false;
+  std::string note_;         // what went wrong in the last reload; "" when it all took
+  std::string last_status_;
+  std::uint64_t counted_generation_ = ~std::uint64_t{0};
+  std::size_t device_count_ = 0;
+  Clock::time_point next_watchdog_{};
+  bool unhealthy_logged_ = false;
+};
+
+}  // namespace rsd::service
