@@ -1,0 +1,82 @@
+"""The unit files as systemd reads them: `systemd-analyze verify`, the offline
+security score (target: exposure <= 1.5), the sysusers entry, the default config."""
+import os
+import re
+import subprocess
+
+from conftest import DAEMON, free_port
+from svc_util import SOURCE_DIR
+
+UNITS = os.path.join(SOURCE_DIR, "systemd")
+MAX_EXPOSURE = 1.5
+
+
+def analyze(*args, cwd=None):
+    return subprocess.run(["systemd-analyze", "--no-pager", *args], capture_output=True, text=True, cwd=cwd,
+                          timeout=60)
+
+
+def copy_units(tmp_path):
+    """The units with ExecStart pointing at the built daemon (/usr/sbin has none yet)."""
+    for name in ("rs-discoveryd.service", "rs-discoveryd.socket"):
+        text = open(os.path.join(UNITS, name)).read().replace("/usr/sbin/rs-discoveryd", DAEMON)
+        (tmp_path / name).write_text(text)
+    return [str(tmp_path / "rs-discoveryd.service"), str(tmp_path / "rs-discoveryd.socket")]
+
+
+def test_units_verify(tmp_path):
+    r = analyze("verify", "--man=no", *copy_units(tmp_path))
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stderr.strip() == "", r.stderr  # not even a warning
+
+
+def test_security_exposure_is_at_most_1_5(tmp_path):
+    r = analyze("security", "--offline=true", os.path.join(UNITS, "rs-discoveryd.service"))
+    m = re.search(r"Overall exposure level for rs-discoveryd.service: (\d+\.\d+)", r.stdout)
+    assert m, r.stdout + r.stderr
+    assert float(m.group(1)) <= MAX_EXPOSURE, r.stdout
+    # Also as systemd itself gates it.
+    r = analyze("security", "--offline=true", f"--threshold={int(MAX_EXPOSURE * 10)}",
+                os.path.join(UNITS, "rs-discoveryd.service"))
+    assert r.returncode == 0, r.stdout[-2000:]
+
+
+def test_service_contract_settings():
+    text = open(os.path.join(UNITS, "rs-discoveryd.service")).read()
+    for line in ("Type=notify", "NotifyAccess=main", "ExecReload=/bin/kill -HUP $MAINPID", "User=rs-discoveryd",
+                 "RuntimeDirectory=rs-discoveryd", "RuntimeDirectoryPreserve=yes", "Requires=rs-discoveryd.socket",
+                 "RestrictAddressFamilies=AF_UNIX AF_INET AF_INET6 AF_NETLINK", "CapabilityBoundingSet=\n"):
+        assert line in text, line
+    assert re.search(r"^WatchdogSec=\d+", text, re.M)
+    sock = open(os.path.join(UNITS, "rs-discoveryd.socket")).read()
+    assert "ListenStream=/run/rs-discoveryd/api.sock" in sock
+    assert "ListenStream=127.0.0.1:8035" in sock
+
+
+def test_sysusers_makes_the_system_user(tmp_path):
+    root = tmp_path / "root"
+    (root / "etc").mkdir(parents=True)
+    r = subprocess.run(["systemd-sysusers", f"--root={root}", os.path.join(UNITS, "rs-discoveryd.sysusers")],
+                       capture_output=True, text=True, timeout=30)
+    assert r.returncode == 0, r.stderr
+    passwd = (root / "etc" / "passwd").read_text()
+    entry = next(l for l in passwd.splitlines() if l.startswith("rs-discoveryd:"))
+    uid, shell = int(entry.split(":")[2]), entry.split(":")[6]
+    assert uid < 1000 and shell.endswith("nologin"), entry
+    assert "rs-discoveryd:" in (root / "etc" / "group").read_text()
+
+
+def test_default_config_is_accepted(tmp_path, free_domain):
+    # The shipped file, with the listeners and domain moved out of the way.
+    p = subprocess.Popen([DAEMON, "--config", os.path.join(UNITS, "config.json"), "--domain", str(free_domain),
+                          "--socket", str(tmp_path / "s.sock"), "--http", f"127.0.0.1:{free_port()}", "--no-usb"],
+                         stderr=subprocess.PIPE, text=True)
+    try:
+        line = p.stderr.readline()
+        while line and "serving" not in line:
+            line = p.stderr.readline()
+        assert "serving" in line, line
+    finally:
+        p.terminate()
+        p.communicate(timeout=10)
+    assert p.returncode == 0
