@@ -46,8 +46,9 @@ void WatchCore::start(Sink sink, StatusSink status, EndSink on_end) {
 void WatchCore::stop() {
   stop_ = true;
   cv_.notify_all();
+  if (std::this_thread::get_id() == thread_id_.load()) return;  // from the callback: it ends after
+  std::lock_guard join_lock(join_mutex_);  // stop() may run on several threads at once
   if (!thread_.joinable()) return;
-  if (std::this_thread::get_id() == thread_.get_id()) return;  // from the callback: it ends after
   std::unique_lock lock(mutex_);
   while (!finished_) {
     lock.unlock();
@@ -119,6 +120,7 @@ void WatchCore::first_result(std::exception_ptr error) {
 }
 
 void WatchCore::run() {
+  thread_id_ = std::this_thread::get_id();
   auto delay = std::chrono::milliseconds(100);
   std::exception_ptr error;
   while (!stop_) {

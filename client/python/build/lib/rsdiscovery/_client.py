@@ -1,0 +1,653 @@
+"""The client: HTTP over a Unix socket or TCP, Server-Sent Events, resumable watches."""
+from __future__ import annotations
+
+import http.client
+import json
+import os
+import queue
+import socket
+import threading
+import time
+import urllib.parse
+from dataclasses import dataclass
+from typing import Any, Callable, Dict, Iterator, List, Optional, Tuple
+
+Device = Dict[str, Any]
+
+__all__ = [
+    "Client", "Endpoint", "Event", "Watcher", "RSDiscoveryError", "DaemonNotRunning", "PermissionDenied",
+    "NotFound", "MalformedReply", "VersionMismatch", "HTTPError", "list_devices", "get_device", "domains",
+    "health", "wait_for", "watch",
+]
+
+
+# ---- errors -----------------------------------------------------------------------------
+
+class RSDiscoveryError(Exception):
+    """Base of every error this package raises."""
+
+
+class DaemonNotRunning(RSDiscoveryError):
+    """Nothing answers at the endpoint (the message names the socket or address tried)."""
+
+
+class PermissionDenied(RSDiscoveryError):
+    """The daemon's socket exists but this user may not connect to it."""
+
+
+class NotFound(RSDiscoveryError):
+    """No device with that id."""
+
+
+class MalformedReply(RSDiscoveryError):
+    """The daemon answered something the API does not promise."""
+
+
+class VersionMismatch(RSDiscoveryError):
+    """The daemon does not serve this client's API version (v1)."""
+
+
+class HTTPError(RSDiscoveryError):
+    """Any other unexpected HTTP status; ``status`` holds it."""
+
+    def __init__(self, message: str, status: int) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+# ---- endpoint ---------------------------------------------------------------------------
+
+_HINT = "is rs-discoveryd running? Give another endpoint with endpoint= or RS_DISCOVERY_ENDPOINT"
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """Where the daemon is: a Unix socket path, or an HTTP host and port."""
+
+    path: Optional[str] = None
+    host: Optional[str] = None
+    port: int = 0
+
+    @staticmethod
+    def parse(text: str) -> "Endpoint":
+        """``unix:/run/x.sock``, ``unix:///run/x.sock``, ``/run/x.sock`` or ``http://host:port``."""
+        if text.startswith("unix:") or text.startswith("/"):
+            path = text[5:] if text.startswith("unix:") else text
+            if path.startswith("//"):
+                path = path[2:]
+            if not path.startswith("/"):
+                raise ValueError(f"bad endpoint {text!r}: the socket path must be absolute")
+            return Endpoint(path=path)
+        if text.startswith("http://"):
+            u = urllib.parse.urlsplit(text)
+            if u.path not in ("", "/") or not u.hostname:
+                raise ValueError(f"bad endpoint {text!r}: expected http://host:port")
+            try:
+                port = u.port or 80
+            except ValueError:
+                raise ValueError(f"bad endpoint {text!r}: bad port") from None
+            return Endpoint(host=u.hostname, port=port)
+        raise ValueError(f"bad endpoint {text!r}: expected unix:/path/to/socket or http://host:port")
+
+    @staticmethod
+    def default_socket() -> "Endpoint":
+        """The daemon's default socket: $RUNTIME_DIRECTORY/api.sock, /run/rs-discoveryd/api.sock
+        for root, else $XDG_RUNTIME_DIR/rs-discoveryd.sock."""
+        runtime = os.environ.get("RUNTIME_DIRECTORY")
+        if runtime:
+            return Endpoint(path=runtime.split(":")[0] + "/api.sock")
+        if os.geteuid() == 0:
+            return Endpoint(path="/run/rs-discoveryd/api.sock")
+        xdg = os.environ.get("XDG_RUNTIME_DIR") or f"/run/user/{os.geteuid()}"
+        return Endpoint(path=xdg + "/rs-discoveryd.sock")
+
+    @staticmethod
+    def from_environment() -> "Endpoint":
+        """$RS_DISCOVERY_ENDPOINT when set, else :meth:`default_socket`."""
+        text = os.environ.get("RS_DISCOVERY_ENDPOINT")
+        return Endpoint.parse(text) if text else Endpoint.default_socket()
+
+    def __str__(self) -> str:
+        if self.path is not None:
+            return "unix:" + self.path
+        host = f"[{self.host}]" if self.host and ":" in self.host else self.host
+        return f"http://{host}:{self.port}"
+
+
+def _endpoint(value: "Endpoint | str | None") -> Endpoint:
+    if value is None or value == "":
+        return Endpoint.from_environment()
+    if isinstance(value, Endpoint):
+        return value
+    return Endpoint.parse(value)
+
+
+class _UnixConnection(http.client.HTTPConnection):
+    def __init__(self, path: str, timeout: float) -> None:
+        super().__init__("localhost", timeout=timeout)
+        self._path = path
+
+    def connect(self) -> None:
+        s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        s.settimeout(self.timeout)
+        try:
+            s.connect(self._path)
+        except BaseException:
+            s.close()
+            raise
+        self.sock = s
+
+
+def _connect_error(ep: Endpoint, exc: OSError) -> RSDiscoveryError:
+    where = ep.path if ep.path is not None else str(ep)
+    if isinstance(exc, FileNotFoundError) or isinstance(exc, NotADirectoryError):
+        return DaemonNotRunning(f"cannot reach rs-discoveryd: no socket at {where} ({_HINT})")
+    if isinstance(exc, ConnectionRefusedError):
+        stale = " (a stale socket file)" if ep.path is not None else ""
+        return DaemonNotRunning(f"cannot reach rs-discoveryd: nothing listens on {where}{stale} ({_HINT})")
+    if isinstance(exc, PermissionError):
+        return PermissionDenied(f"permission denied on {where}: this user may not connect to the daemon's "
+                                "socket (join the group that owns it, or ask the administrator)")
+    if isinstance(exc, socket.timeout):
+        return DaemonNotRunning(f"rs-discoveryd at {ep} did not answer in time")
+    return DaemonNotRunning(f"cannot reach rs-discoveryd at {where}: {exc}")
+
+
+def _query(domain: Optional[int], product_line: Optional[str], source: Optional[str]) -> str:
+    q: List[Tuple[str, str]] = []
+    if domain is not None:
+        q.append(("domain", str(int(domain))))
+    if product_line:
+        q.append(("product-line", product_line))
+    if source:
+        q.append(("source", source))
+    return ("?" + urllib.parse.urlencode(q)) if q else ""
+
+
+def _matches(d: Device, domain: Optional[int], product_line: Optional[str], source: Optional[str]) -> bool:
+    if domain is not None and d.get("domain") != domain:
+        return False
+    if product_line and d.get("product-line") != product_line:
+        return False
+    if source and d.get("source") != source and source not in (d.get("sources") or []):
+        return False
+    return True
+
+
+def _same(a: Device, b: Device) -> bool:
+    """Equal apart from last-seen, which moves without being news."""
+    return {k: v for k, v in a.items() if k != "last-seen"} == {k: v for k, v in b.items() if k != "last-seen"}
+
+
+# ---- events -----------------------------------------------------------------------------
+
+@dataclass
+class Event:
+    """One change of the device table.
+
+    ``type`` is ``added``, ``changed`` or ``removed``; ``id`` the daemon's event id (its
+    generation); ``synthetic`` is true for events this package derived from a re-list
+    (after a daemon restart) rather than received; ``device`` the device document (for
+    ``removed``, as last seen).
+    """
+
+    type: str
+    id: int
+    device: Device
+    synthetic: bool = False
+
+
+class _SseParser:
+    """Incremental Server-Sent Events parser (lines end in LF, CR or CRLF)."""
+
+    def __init__(self) -> None:
+        self._buf = ""
+        self._event = ""
+        self._data: List[str] = []
+        self._id: Optional[str] = None
+
+    def feed(self, text: str) -> List[Tuple[str, str, Optional[str]]]:
+        out: List[Tuple[str, str, Optional[str]]] = []
+        self._buf += text
+        while True:
+            i = min((p for p in (self._buf.find("\n"), self._buf.find("\r")) if p >= 0), default=-1)
+            if i < 0:
+                break
+            if self._buf[i] == "\r" and i + 1 == len(self._buf):
+                break  # a CR at the end may be half of a CRLF: wait
+            line = self._buf[:i]
+            skip = 2 if self._buf[i] == "\r" and self._buf[i + 1:i + 2] == "\n" else 1
+            self._buf = self._buf[i + skip:]
+            if line == "":
+                if self._data or self._event:
+                    out.append((self._event or "message", "\n".join(self._data), self._id))
+                self._event, self._data, self._id = "", [], None
+            elif line.startswith(":"):
+                continue
+            else:
+                key, _, value = line.partition(":")
+                if value.startswith(" "):
+                    value = value[1:]
+                if key == "event":
+                    self._event = value
+                elif key == "data":
+                    self._data.append(value)
+                elif key == "id" and "\0" not in value:
+                    self._id = value
+        return out
+
+
+_STOP = object()
+
+
+class Watcher:
+    """A running watch of the daemon's events, with a consistent view across reconnects.
+
+    It lists the devices, then streams from the generation of that list, so nothing
+    falls in between; after a disconnect it resumes with ``Last-Event-ID``, and when the
+    daemon cannot fill the gap (it restarted) it re-lists and reports the difference as
+    synthetic events. Iterate it, or call :meth:`next` with a timeout; :meth:`close` ends
+    it (also as a context manager).
+    """
+
+    def __init__(self, client: "Client", initial: bool = False, last_event_id: Optional[int] = None,
+                 reconnect: bool = True, idle_timeout: float = 60.0, max_reconnect_delay: float = 2.0,
+                 domain: Optional[int] = None, product_line: Optional[str] = None,
+                 source: Optional[str] = None) -> None:
+        self._client = client
+        self._filters = (domain, product_line, source)
+        self._initial = initial
+        self._reconnect = reconnect
+        self._idle = idle_timeout
+        self._max_delay = max_reconnect_delay
+        self._last_id: Optional[int] = last_event_id
+        self._known: Dict[str, Device] = {}
+        self._complete = False
+        self._queue: "queue.Queue[Any]" = queue.Queue()
+        self._closed = threading.Event()
+        self._lock = threading.Lock()
+        self._conn: Optional[http.client.HTTPConnection] = None
+        self._ended = False
+        self._started = threading.Event()
+        self._start_error: Optional[BaseException] = None
+        self._thread = threading.Thread(target=self._run, name="rsdiscovery-watch", daemon=True)
+        self._thread.start()
+        self._started.wait()
+        if self._start_error is not None:
+            self.close()
+            raise self._start_error
+
+    # -- public
+    @property
+    def last_event_id(self) -> Optional[int]:
+        """The id to resume from in a later watch (``last_event_id=``)."""
+        return self._last_id
+
+    def devices(self) -> List[Device]:
+        """The view as tracked now (matching the watch's filters)."""
+        with self._lock:
+            return [dict(d) for d in self._known.values() if _matches(d, *self._filters)]
+
+    def next(self, timeout: Optional[float] = None) -> Optional[Event]:
+        """The next event; ``None`` when ``timeout`` seconds pass first or the watch was closed.
+        Raises the error that ended the watch, if one did."""
+        if self._ended:
+            return None
+        try:
+            item = self._queue.get(timeout=timeout)
+        except queue.Empty:
+            return None
+        if item is _STOP:
+            self._ended = True
+            return None
+        if isinstance(item, BaseException):
+            self._ended = True
+            raise item
+        return item
+
+    def __iter__(self) -> Iterator[Event]:
+        return self
+
+    def __next__(self) -> Event:
+        e = self.next()
+        if e is None:
+            raise StopIteration
+        return e
+
+    def close(self) -> None:
+        """Ends the watch; safe from any thread, and more than once."""
+        self._closed.set()
+        with self._lock:
+            conn = self._conn
+        if conn is not None and conn.sock is not None:
+            try:
+                conn.sock.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
+        if threading.current_thread() is not self._thread:
+            self._thread.join(timeout=5)
+
+    def __enter__(self) -> "Watcher":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    # -- the thread
+    def _emit(self, kind: str, doc: Device, ident: int, synthetic: bool) -> None:
+        key = doc["id"]
+        with self._lock:
+            old = self._known.get(key)
+            if kind == "removed":
+                if old is None and self._complete:
+                    return
+                self._known.pop(key, None)
+            else:
+                if old is not None and _same(old, doc):
+                    self._known[key] = doc
+                    return
+                kind = "changed" if old is not None else "added"
+                self._known[key] = doc
+        if _matches(doc, *self._filters):
+            self._queue.put(Event(kind, ident, doc, synthetic))
+
+    def _relist(self, emit: bool) -> Optional[int]:
+        reply = self._client._get_json("/v1/devices" + _query(*self._filters))
+        devices = reply.get("devices")
+        if not isinstance(devices, list) or not all(isinstance(d, dict) and isinstance(d.get("id"), str)
+                                                    for d in devices):
+            raise MalformedReply(f"malformed reply from rs-discoveryd at {self._client.endpoint}: "
+                                 "/v1/devices has no list of devices")
+        generation = reply.get("generation")
+        generation = generation if isinstance(generation, int) and generation >= 0 else None
+        fresh = {d["id"]: d for d in devices}
+        with self._lock:
+            if generation is not None:
+                self._last_id = max(self._last_id or 0, generation)
+            at = self._last_id or 0
+            if not emit:
+                self._known = fresh
+                self._complete = True
+                return generation
+            gone = [d for k, d in self._known.items() if k not in fresh]
+            self._complete = True
+        for d in gone:
+            self._emit("removed", d, at, True)
+        for d in fresh.values():
+            self._emit("added", d, at, True)
+        return generation
+
+    def _handle(self, kind: str, data: str, ident: Optional[str]) -> None:
+        num = int(ident) if ident is not None and ident.isdigit() else None
+        if kind == "resync":
+            self._last_id = num
+            self._relist(True)
+            return
+        if kind == "hello":
+            if num is not None:
+                self._last_id = num
+            return
+        if kind not in ("added", "changed", "removed"):
+            return
+        try:
+            doc = json.loads(data)
+        except ValueError:
+            doc = None
+        if not isinstance(doc, dict) or not isinstance(doc.get("id"), str):
+            raise MalformedReply(f"malformed event from rs-discoveryd at {self._client.endpoint}: "
+                                 f"{kind!r} without a device document")
+        if num is not None:
+            self._last_id = num
+        self._emit(kind, doc, num or 0, False)
+
+    def _connect_once(self) -> bool:
+        """One connection; returns whether it got as far as an open stream."""
+        if self._last_id is None:  # nothing to resume from: list, then stream from that generation
+            self._relist(self._complete or self._initial)
+        headers = {"Accept": "text/event-stream"}
+        if self._last_id is not None:
+            headers["Last-Event-ID"] = str(self._last_id)
+        conn = self._client._connection(self._idle)
+        with self._lock:
+            self._conn = conn
+        try:
+            try:
+                conn.request("GET", "/v1/events" + _query(*self._filters), headers=headers)
+                resp = conn.getresponse()
+            except OSError as e:
+                raise _connect_error(self._client.endpoint, e) from None
+            if resp.status != 200:
+                body = resp.read()
+                raise self._client._status_error("/v1/events", resp.status, body)
+            if self._last_id is None:  # a daemon whose list has no generation
+                self._relist(self._complete or self._initial)
+            self._started.set()
+            parser = _SseParser()
+            while not self._closed.is_set():
+                try:
+                    chunk = resp.read1(65536)
+                except (OSError, http.client.HTTPException):
+                    break  # the stream broke (or went idle): reconnect
+                if not chunk:
+                    break
+                for kind, data, ident in parser.feed(chunk.decode("utf-8", "replace")):
+                    self._handle(kind, data, ident)
+            return True
+        finally:
+            with self._lock:
+                self._conn = None
+            conn.close()
+
+    def _run(self) -> None:
+        delay = 0.1
+        error: Optional[BaseException] = None
+        while not self._closed.is_set():
+            opened = False
+            try:
+                opened = self._connect_once()
+                if self._closed.is_set():
+                    break
+                if not self._reconnect:
+                    error = DaemonNotRunning(f"rs-discoveryd at {self._client.endpoint} ended the event stream")
+                    break
+            except BaseException as e:  # noqa: B902 - handed to the caller, never dropped
+                if self._closed.is_set():
+                    break
+                if not self._started.is_set():
+                    self._start_error = e
+                    self._started.set()
+                    return
+                transient = isinstance(e, DaemonNotRunning) or (isinstance(e, HTTPError) and e.status >= 500)
+                if not transient or not self._reconnect:
+                    error = e
+                    break
+            if opened:
+                delay = 0.1
+            if self._closed.wait(delay):
+                break
+            delay = min(delay * 2, max(self._max_delay, 0.1))
+        self._started.set()
+        self._queue.put(error if error is not None else _STOP)
+
+
+# ---- the client ---------------------------------------------------------------------------
+
+class Client:
+    """A connection to rs-discoveryd.
+
+    ``endpoint``: ``unix:/path``, ``http://host:port`` or an :class:`Endpoint`; by default
+    ``$RS_DISCOVERY_ENDPOINT``, else the daemon's default socket. ``timeout``: seconds for
+    one request.
+    """
+
+    def __init__(self, endpoint: "Endpoint | str | None" = None, timeout: float = 10.0) -> None:
+        self.endpoint = _endpoint(endpoint)
+        self.timeout = timeout
+
+    def _connection(self, timeout: float) -> http.client.HTTPConnection:
+        if self.endpoint.path is not None:
+            return _UnixConnection(self.endpoint.path, timeout)
+        return http.client.HTTPConnection(self.endpoint.host, self.endpoint.port, timeout=timeout)
+
+    def _request(self, path: str) -> Tuple[int, bytes]:
+        conn = self._connection(self.timeout)
+        try:
+            conn.request("GET", path, headers={"Accept": "application/json"})
+            resp = conn.getresponse()
+            return resp.status, resp.read()
+        except socket.timeout:
+            raise RSDiscoveryError(f"rs-discoveryd at {self.endpoint} did not answer within {self.timeout}s") \
+                from None
+        except OSError as e:
+            raise _connect_error(self.endpoint, e) from None
+        except http.client.HTTPException as e:
+            raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: {e}") from None
+        finally:
+            conn.close()
+
+    def _status_error(self, path: str, status: int, body: bytes) -> RSDiscoveryError:
+        try:
+            detail = json.loads(body).get("error", "")
+        except (ValueError, AttributeError):
+            detail = ""
+        if status in (404, 405):
+            return VersionMismatch(f"version mismatch: rs-discoveryd at {self.endpoint} does not serve GET {path} "
+                                   f"(HTTP {status}); this client speaks API v1")
+        return HTTPError(f"rs-discoveryd at {self.endpoint} answered HTTP {status} to GET {path}"
+                         + (f": {detail}" if detail else ""), status)
+
+    def _get_json(self, path: str) -> Dict[str, Any]:
+        status, body = self._request(path)
+        if status != 200:
+            raise self._status_error(path, status, body)
+        try:
+            doc = json.loads(body)
+        except ValueError:
+            doc = None
+        if not isinstance(doc, dict):
+            raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: GET {path} "
+                                 "did not return a JSON object")
+        return doc
+
+    def list_devices(self, domain: Optional[int] = None, product_line: Optional[str] = None,
+                     source: Optional[str] = None) -> List[Device]:
+        """The devices the daemon knows now, optionally filtered (DDS domain, product line,
+        ``dds``/``usb``)."""
+        devices = self._get_json("/v1/devices" + _query(domain, product_line, source)).get("devices")
+        if not isinstance(devices, list) or not all(isinstance(d, dict) and "id" in d for d in devices):
+            raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: no list of devices")
+        return devices
+
+    def get_device(self, device_id: str) -> Device:
+        """One device by its id; raises :class:`NotFound` when there is none."""
+        path = "/v1/devices/" + urllib.parse.quote(device_id, safe="")
+        status, body = self._request(path)
+        if status == 404:
+            raise NotFound(f"no device {device_id!r} at rs-discoveryd ({self.endpoint})")
+        if status != 200:
+            raise self._status_error(path, status, body)
+        try:
+            doc = json.loads(body)
+        except ValueError:
+            doc = None
+        if not isinstance(doc, dict) or "id" not in doc:
+            raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: GET {path}")
+        return doc
+
+    def domains(self) -> List[Dict[str, Any]]:
+        """Per-domain status: state, participant GUID, devices, accepted and rejected messages."""
+        doms = self._get_json("/v1/domains").get("domains")
+        if not isinstance(doms, list):
+            raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: no list of domains")
+        return doms
+
+    def health(self) -> Dict[str, Any]:
+        """``{"status": "ok", "version": ..., "devices": N}``."""
+        return self._get_json("/healthz")
+
+    def watcher(self, **kwargs: Any) -> Watcher:
+        """A :class:`Watcher` (pull with timeouts); keyword arguments as :meth:`watch`."""
+        return Watcher(self, **kwargs)
+
+    def watch(self, initial: bool = False, last_event_id: Optional[int] = None, reconnect: bool = True,
+              domain: Optional[int] = None, product_line: Optional[str] = None,
+              source: Optional[str] = None) -> Iterator[Event]:
+        """A generator of :class:`Event` that runs until closed (``break`` out, or ``close()``).
+
+        It resumes by itself after a disconnect or a daemon restart, reporting what
+        changed meanwhile. ``initial``: first yield every present device as ``added``.
+        ``last_event_id``: resume after an id saved from an earlier watch.
+        """
+        w = Watcher(self, initial=initial, last_event_id=last_event_id, reconnect=reconnect, domain=domain,
+                    product_line=product_line, source=source)
+        return _generate(w)
+
+    def wait_for(self, predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0,
+                 count: int = 1, domain: Optional[int] = None, product_line: Optional[str] = None,
+                 source: Optional[str] = None) -> Optional[Device]:
+        """Waits until ``count`` devices matching the filters and ``predicate`` are present;
+        returns the first of them, or ``None`` when ``timeout`` seconds pass first."""
+        def hit(devices: List[Device]) -> List[Device]:
+            return [d for d in devices if predicate is None or predicate(d)]
+
+        now = hit(self.list_devices(domain, product_line, source))
+        if len(now) >= count:
+            return now[0]
+        deadline = time.monotonic() + timeout
+        with Watcher(self, domain=domain, product_line=product_line, source=source) as w:
+            while True:
+                now = hit(w.devices())
+                if len(now) >= count:
+                    return now[0]
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return None
+                w.next(timeout=left)
+
+
+def _generate(w: Watcher) -> Iterator[Event]:
+    try:
+        while True:
+            e = w.next()
+            if e is None:
+                return
+            yield e
+    finally:
+        w.close()
+
+
+# ---- module-level shortcuts ----------------------------------------------------------------
+
+def list_devices(domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
+                 endpoint: "Endpoint | str | None" = None) -> List[Device]:
+    """The devices the daemon knows now (see :meth:`Client.list_devices`)."""
+    return Client(endpoint).list_devices(domain, product_line, source)
+
+
+def get_device(device_id: str, endpoint: "Endpoint | str | None" = None) -> Device:
+    """One device by id; raises :class:`NotFound`."""
+    return Client(endpoint).get_device(device_id)
+
+
+def domains(endpoint: "Endpoint | str | None" = None) -> List[Dict[str, Any]]:
+    """Per-domain status (see :meth:`Client.domains`)."""
+    return Client(endpoint).domains()
+
+
+def health(endpoint: "Endpoint | str | None" = None) -> Dict[str, Any]:
+    """The daemon's /healthz."""
+    return Client(endpoint).health()
+
+
+def wait_for(predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0, count: int = 1,
+             domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
+             endpoint: "Endpoint | str | None" = None) -> Optional[Device]:
+    """Waits for a device (see :meth:`Client.wait_for`)."""
+    return Client(endpoint).wait_for(predicate, timeout, count, domain, product_line, source)
+
+
+def watch(initial: bool = False, last_event_id: Optional[int] = None, reconnect: bool = True,
+          domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
+          endpoint: "Endpoint | str | None" = None) -> Iterator[Event]:
+    """A resumable generator of events (see :meth:`Client.watch`)."""
+    return Client(endpoint).watch(initial, last_event_id, reconnect, domain, product_line, source)

@@ -1,0 +1,73 @@
+// A test driver of the rsdiscovery library for pytest:
+//   rsdiscovery_test_driver subscribe ENDPOINT      callback watch; one JSON line per event
+//                                                   on stdout until stdin closes
+//   rsdiscovery_test_driver wait-for ENDPOINT SERIAL SECONDS
+//                                                   prints the device id, or exits 1
+#include <rsdiscovery/rsdiscovery.hpp>
+
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <mutex>
+#include <string>
+
+namespace {
+
+std::mutex out_mutex;
+
+void line(const std::string& text) {
+  std::lock_guard lock(out_mutex);
+  std::fputs((text + "\n").c_str(), stdout);
+  std::fflush(stdout);
+}
+
+std::string quote(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 3) return 2;
+  std::string mode = argv[1];
+  try {
+    rsdiscovery::Client client(argv[2]);
+    if (mode == "subscribe") {
+      rsdiscovery::WatchOptions options;
+      options.initial = true;
+      auto sub = client.watch(
+          [](const rsdiscovery::Event& e) {
+            line(std::string("{\"event\":\"") + rsdiscovery::to_string(e.type) + "\",\"id\":" + std::to_string(e.id) +
+                 ",\"synthetic\":" + (e.synthetic ? "true" : "false") + ",\"device\":" + e.device.json + "}");
+          },
+          options, [](std::exception_ptr) { line("{\"error\":true}"); },
+          [](const rsdiscovery::WatchStatus& s) {
+            line(std::string("{\"status\":") + (s.connected ? "\"connected\"" : "\"disconnected\"") +
+                 ",\"message\":" + quote(s.message) + "}");
+          });
+      line("{\"ready\":true}");
+      std::string ignored;
+      while (std::getline(std::cin, ignored)) {
+      }
+      sub.stop();
+      return 0;
+    }
+    if (mode == "wait-for" && argc == 5) {
+      std::string serial = argv[3];
+      auto ms = std::chrono::milliseconds(static_cast<long long>(std::atof(argv[4]) * 1000));
+      auto d = client.wait_for([&](const rsdiscovery::Device& dev) { return dev.serial == serial; }, ms);
+      if (!d) return 1;
+      line(d->id);
+      return 0;
+    }
+  } catch (const rsdiscovery::Error& e) {
+    std::fprintf(stderr, "%s: %s\n", rsdiscovery::to_string(e.code()), e.what());
+    return 3;
+  }
+  return 2;
+}

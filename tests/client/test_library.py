@@ -1,0 +1,108 @@
+"""The C++ library against the real daemon: the example program, the push-style watch
+(callback) through a daemon restart, and wait_for."""
+import json
+import queue
+import subprocess
+import threading
+
+import pytest
+from client_util import DOMAIN_RANGE, DRIVER, EXAMPLE, fold
+from conftest import Daemon, device_info, free_port, wait_for
+
+
+@pytest.fixture
+def domain(domains):
+    return domains.take(*DOMAIN_RANGE)
+
+
+def test_example_lists_cameras(daemon, realdds_server, domain):
+    d = daemon([domain])
+    realdds_server(domain, [device_info(21)])
+    wait_for(lambda: d.devices(), 20, what="the camera")
+    r = subprocess.run([EXAMPLE, "unix:" + d.socket], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith("1 camera(s) at unix:")
+    assert f"serial 123622270721   dds domain {domain} at " in r.stdout
+    r = subprocess.run([EXAMPLE, "unix:/nonexistent/api.sock"], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 3 and "no socket at /nonexistent/api.sock" in r.stderr
+
+
+def test_wait_for(daemon, realdds_server, domain):
+    d = daemon([domain])
+    ep = "unix:" + d.socket
+    r = subprocess.run([DRIVER, "wait-for", ep, "nobody", "0.3"], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 1
+    waiter = subprocess.Popen([DRIVER, "wait-for", ep, "123622270722", "30"], stdout=subprocess.PIPE, text=True)
+    realdds_server(domain, [device_info(21), device_info(22)])
+    out, _ = waiter.communicate(timeout=40)
+    assert waiter.returncode == 0
+    assert out.strip() == f"dds-{domain}-realsense.D455_123622270722"
+
+
+class Subscriber:
+    def __init__(self, endpoint):
+        self.proc = subprocess.Popen([DRIVER, "subscribe", endpoint], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     text=True)
+        self.lines = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self):
+        for line in self.proc.stdout:
+            self.lines.put(json.loads(line))
+        self.lines.put(None)
+
+    def drain(self):
+        out = []
+        while True:
+            try:
+                item = self.lines.get_nowait()
+            except queue.Empty:
+                return out
+            assert item is not None, "driver ended"
+            out.append(item)
+
+    def stop(self):
+        self.proc.stdin.close()
+        return self.proc.wait(10)
+
+
+def test_callback_watch_survives_a_daemon_restart(realdds_server, domain, tmp_path):
+    sock = str(tmp_path / "api.sock")
+
+    def start():
+        port = free_port()
+        return Daemon(["--domain", str(domain), "--socket", sock, "--http", f"127.0.0.1:{port}", "--no-usb"],
+                      str(tmp_path), sock, port).wait_ready()
+
+    d = start()
+    srv = realdds_server(domain, [device_info(31)])
+    wait_for(lambda: len(d.devices()) == 1, 20, what="first device")
+    sub = Subscriber("unix:" + sock)
+    view, statuses, lines = {}, [], []
+
+    def take():
+        for item in sub.drain():
+            lines.append(item)
+            assert "error" not in item, lines
+            if "event" in item:
+                fold(view, item)
+            elif "status" in item:
+                statuses.append(item["status"])
+        return True
+
+    wait_for(lambda: take() and len(view) == 1, 10, what="the initial device")
+    srv.command(cmd="add", info=device_info(32))
+    wait_for(lambda: take() and len(view) == 2, 20, what="the second device")
+    assert d.stop() == 0
+    srv.command(cmd="disconnect", **{"topic-root": "realsense/D455_123622270731"})
+    srv.command(cmd="remove", **{"topic-root": "realsense/D455_123622270731"})
+    srv.command(cmd="add", info=device_info(33))
+    d2 = start()
+    try:
+        want = sorted(f"dds-{domain}-realsense.D455_1236222707{n}" for n in (32, 33))
+        wait_for(lambda: d2.device_ids() == want, 20, what="the restarted daemon's view")
+        wait_for(lambda: take() and sorted(view) == want, 20, what="the callback's view to match it")
+        assert "disconnected" in statuses and statuses[-1] == "connected", statuses
+        assert sub.stop() == 0
+    finally:
+        d2.stop()
