@@ -3,6 +3,9 @@
 // says it cannot fill the gap, so the caller sees every addition and removal.
 #include "watch_core.hpp"
 
+#include <pthread.h>
+#include <signal.h>
+
 #include <charconv>
 #include <cstdio>
 
@@ -108,7 +111,13 @@ std::optional<Event> WatchCore::next(std::optional<std::chrono::milliseconds> ti
 }
 
 void WatchCore::status(bool connected, const std::string& message) {
-  if (status_) status_(WatchStatus{connected, message});
+  if (!status_) return;
+  try {
+    status_(WatchStatus{connected, message});
+  } catch (...) {  // ends the watch like a throwing event callback, never silently
+    status_error_ = std::current_exception();
+    stop_ = true;
+  }
 }
 
 void WatchCore::first_result(std::exception_ptr error) {
@@ -121,6 +130,11 @@ void WatchCore::first_result(std::exception_ptr error) {
 
 void WatchCore::run() {
   thread_id_ = std::this_thread::get_id();
+  // A write to a daemon that just went away must fail with EPIPE, not kill the process.
+  sigset_t pipe;
+  sigemptyset(&pipe);
+  sigaddset(&pipe, SIGPIPE);
+  pthread_sigmask(SIG_BLOCK, &pipe, nullptr);
   auto delay = std::chrono::milliseconds(100);
   std::exception_ptr error;
   while (!stop_) {
@@ -157,6 +171,11 @@ void WatchCore::run() {
     std::unique_lock lock(mutex_);
     cv_.wait_for(lock, delay, [this] { return stop_.load(); });
     delay = std::min(delay * 2, std::max(options_.max_reconnect_delay, 100ms));
+  }
+  if (!error && status_error_) error = status_error_;
+  if (!first_done_ && error) {
+    first_result(error);
+    error = nullptr;
   }
   first_result(nullptr);
   {

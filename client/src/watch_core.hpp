@@ -65,6 +65,7 @@ class WatchCore {
   std::exception_ptr first_error_;
   bool finished_ = false;
   std::exception_ptr end_error_;
+  std::exception_ptr status_error_;  // thrown by the caller's status callback
   std::mutex join_mutex_;
   std::atomic<std::thread::id> thread_id_{};
   std::thread thread_;

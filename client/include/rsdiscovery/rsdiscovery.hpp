@@ -11,6 +11,10 @@
 //
 // Every call that talks to the daemon throws rsdiscovery::Error on failure; its code()
 // tells what the caller can do about it.
+//
+// Threads: a Client serialises its own requests (one connection); each watch runs on a
+// thread of its own, which blocks SIGPIPE. A program that makes requests from its own
+// threads while the daemon may go away should ignore SIGPIPE, as network programs do.
 #pragma once
 
 #include <chrono>
