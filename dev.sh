@@ -24,6 +24,8 @@ DEB_PACKAGES=(
   umockdev libumockdev-dev gir1.2-umockdev-1.0
   # systemd tools (systemd-socket-activate, systemd-analyze) and Debian packaging
   systemd debhelper devscripts lintian fakeroot dpkg-dev
+  # the systemd tests trace the daemon's system calls against the unit's filter
+  strace
 )
 
 say() { printf '\n==> %s\n' "$*"; }
