@@ -15,6 +15,10 @@ namespace {
 
 log::RateLimiter g_reject_log;
 
+// realdds gives every participant one writer on device-info that never writes
+// (measured: a server with k devices matches k + 1 writers).
+constexpr int kIdleWritersPerServer = 1;
+
 std::string dds_error(const char* what, dds_return_t rc) {
   return std::string(what) + ": " + dds_strretcode(rc);
 }
@@ -150,7 +154,11 @@ void DomainSession::create_reader() {
   dds_qos_t* qos = dds_create_qos();
   dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(10));
   dds_qset_durability(qos, DDS_DURABILITY_VOLATILE);
-  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 10);
+  // realdds' own readers keep the last 10, but the topic has no key, so every
+  // writer's samples share one instance: a server announcing many devices at
+  // once overflows that before the listener takes them (42 of 100 seen). History
+  // is not matched against writers, so the daemon keeps all; the listener drains it.
+  dds_qset_history(qos, DDS_HISTORY_KEEP_ALL, 0);
   dds_listener_t* listener = dds_create_listener(this);
   dds_lset_data_available(listener, &DomainSession::on_data_available);
   dds_lset_subscription_matched(listener, &DomainSession::on_subscription_matched);
@@ -177,7 +185,6 @@ void DomainSession::delete_reader() {
   dds_delete(reader);
   std::lock_guard lock(mutex_);
   writers_.clear();  // handles were per reader; matches come again for the next one
-  for (auto& [guid, server] : servers_) server.sent = false;
 }
 
 void DomainSession::begin_reconcile(Clock::time_point now) {
@@ -202,20 +209,18 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
       reconcile_at_.reset();
       drop_devices_without_writer(reader_, nullptr);
     }
-    // Servers whose writers all matched a while ago and that sent nothing since.
-    std::map<std::string, bool> all_old;  // participant GUID -> every writer matched long ago
-    for (const auto& [h, w] : writers_) {
-      const bool old = now - w.matched_at >= options_.silent_grace;
-      auto [it, fresh] = all_old.try_emplace(w.participant_guid, old);
-      if (!fresh) it->second = it->second && old;
-    }
-    for (const auto& [p, old] : all_old) {
+    // Count, per server, the writers that matched a while ago and sent nothing.
+    std::map<std::string, int> silent;  // participant GUID -> such writers
+    for (const auto& [h, w] : writers_)
+      if (!w.sent && now - w.matched_at >= options_.silent_grace) ++silent[w.participant_guid];
+    for (const auto& [p, count] : silent) {
       Server& server = servers_[p];
-      if (server.sent || !old || server.silent_retries >= options_.silent_retries) continue;
+      if (count < kIdleWritersPerServer + 1 || server.silent_retries >= options_.silent_retries) continue;
       ++server.silent_retries;
-      log::info("domain " + std::to_string(options_.domain) + ": server " + p +
-                " matched but sent no device-info; making the reader anew so it broadcasts again (try " +
-                std::to_string(server.silent_retries) + ")");
+      log::info("domain " + std::to_string(options_.domain) + ": server " + p + " has " +
+                std::to_string(count - kIdleWritersPerServer) +
+                " device writer(s) that matched but sent no device-info; making the reader anew so "
+                "it broadcasts again (try " + std::to_string(server.silent_retries) + ")");
       recreate = true;
     }
   }
@@ -300,6 +305,8 @@ DomainSession::Writer* DomainSession::writer_for(dds_entity_t reader, dds_instan
       dds_return_loan(participant_reader_, &sample, 1);
     }
   }
+  log::debug("domain " + std::to_string(options_.domain) + ": writer " + w.guid + " of " +
+             w.participant_guid + " (" + server.name + ") matched");
   return &writers_.emplace(publication, std::move(w)).first->second;
 }
 
@@ -309,7 +316,7 @@ void DomainSession::handle_sample(dds_entity_t reader, dds_instance_handle_t pub
   std::lock_guard lock(mutex_);
   Writer* writer = writer_for(reader, publication);
   const std::string sender = writer ? writer->guid : "unknown writer";
-  if (writer) servers_[writer->participant_guid].sent = true;
+  if (writer) writer->sent = true;
 
   if (auto* bad = std::get_if<Rejected>(&parsed)) {
     reject(bad->reason, bad->detail, sender);

@@ -29,9 +29,11 @@ struct SessionOptions {
   // knows a server's writer loses that server's broadcast for good, so the
   // reader waits this long after the participant is made.
   std::chrono::milliseconds settle{1700};
-  // A server whose writers matched but sent nothing by then had its broadcast
-  // lost all the same (it raced discovery): the reader is made anew, which makes
-  // every server broadcast again.
+  // A device writer that matched but sent nothing by then had its broadcast
+  // lost all the same (it raced discovery: seen for a server announcing many
+  // devices at once on a loaded machine): the reader is made anew, which makes
+  // every server broadcast again. Each realdds participant also has one writer
+  // on the topic that never writes, so a server counts as silent from two on.
   std::chrono::milliseconds silent_grace{2500};
   int silent_retries = 3;  // per server participant, so a quiet peer can't loop us
   // After the reader or the participant is made anew, a device whose writer has
@@ -73,12 +75,12 @@ class DomainSession {
     std::string guid;
     std::string participant_guid;
     Clock::time_point matched_at;
+    bool sent = false;  // delivered a sample to the current reader
   };
   struct Server {
     std::string name;
     std::vector<std::string> addresses;
     int silent_retries = 0;
-    bool sent = false;  // delivered a sample to the current reader
   };
 
   static void on_data_available(dds_entity_t reader, void* arg);

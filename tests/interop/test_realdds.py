@@ -162,3 +162,14 @@ def test_rebuilding_the_participant_keeps_devices_without_events(free_domain, da
     assert ev["event"] == "removed" and ev["json"]["id"] == dds_id(free_domain, a), ev
     assert d.device_ids() == [dds_id(free_domain, b)]
     events.close()
+
+
+def test_one_server_announcing_a_hundred_devices_at_once(free_domain, daemon, realdds_server):
+    """Regression: a server creating many device writers in a burst raced
+    Cyclone's discovery of those writers, and on a loaded machine the daemon kept
+    42 of 100. Writers that match but stay silent now make the reader anew."""
+    d = daemon([free_domain])
+    infos = [device_info(n) for n in range(100)]
+    realdds_server(free_domain, infos)
+    wait_for(lambda: len(d.devices()) == 100, timeout=30, what="all 100 devices")
+    assert sorted(dev["serial"] for dev in d.devices()) == sorted(i["serial"] for i in infos)
