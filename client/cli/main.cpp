@@ -22,7 +22,8 @@ void usage(std::FILE* out) {
       "\nRun 'rs-discover COMMAND --help' for a command's options.\n"
       "The daemon is reached at --endpoint, else $RS_DISCOVERY_ENDPOINT, else its default\n"
       "socket ($RUNTIME_DIRECTORY/api.sock, /run/rs-discoveryd/api.sock as root,\n"
-      "$XDG_RUNTIME_DIR/rs-discoveryd.sock otherwise).\n"
+      "$XDG_RUNTIME_DIR/rs-discoveryd.sock otherwise, falling back to the system\n"
+      "service's /run/rs-discoveryd/api.sock when only that one exists).\n"
       "\nExit status: 0 ok, 1 not found or timed out, 2 usage error, 3 daemon unreachable,\n"
       "4 the daemon's answer was not understood (version mismatch, malformed reply).\n",
       out);

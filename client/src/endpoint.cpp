@@ -67,6 +67,10 @@ Endpoint Endpoint::parse(const std::string& text) {
   return ep;
 }
 
+namespace {
+constexpr const char* kSystemSocket = "/run/rs-discoveryd/api.sock";
+}  // namespace
+
 Endpoint Endpoint::default_socket() {
   Endpoint ep;
   ep.kind = Kind::unix_socket;
@@ -76,11 +80,14 @@ Endpoint Endpoint::default_socket() {
     first = first.substr(0, first.find(':'));
     ep.path = first + "/api.sock";
   } else if (geteuid() == 0) {
-    ep.path = "/run/rs-discoveryd/api.sock";
-  } else if (const char* xdg = env("XDG_RUNTIME_DIR")) {
-    ep.path = std::string(xdg) + "/rs-discoveryd.sock";
+    ep.path = kSystemSocket;
   } else {
-    ep.path = "/run/user/" + std::to_string(geteuid()) + "/rs-discoveryd.sock";
+    const char* xdg = env("XDG_RUNTIME_DIR");
+    ep.path = xdg ? std::string(xdg) + "/rs-discoveryd.sock"
+                  : "/run/user/" + std::to_string(geteuid()) + "/rs-discoveryd.sock";
+    // A user with no daemon of their own asks the system's (the service runs as
+    // its own user; members of its group may use its socket).
+    if (access(ep.path.c_str(), F_OK) != 0 && access(kSystemSocket, F_OK) == 0) ep.path = kSystemSocket;
   }
   return ep;
 }

@@ -84,7 +84,8 @@ struct RSDISCOVERY_API Endpoint {
   // $RS_DISCOVERY_ENDPOINT when set and not empty, else default_socket().
   static Endpoint from_environment();
   // The daemon's own default: $RUNTIME_DIRECTORY/api.sock when set, else
-  // /run/rs-discoveryd/api.sock for root, else $XDG_RUNTIME_DIR/rs-discoveryd.sock.
+  // /run/rs-discoveryd/api.sock for root, else $XDG_RUNTIME_DIR/rs-discoveryd.sock,
+  // or the system service's /run/rs-discoveryd/api.sock when only that exists.
   static Endpoint default_socket();
 
   std::string to_string() const;  // "unix:/path" or "http://host:port"

@@ -92,14 +92,19 @@ class Endpoint:
     @staticmethod
     def default_socket() -> "Endpoint":
         """The daemon's default socket: $RUNTIME_DIRECTORY/api.sock, /run/rs-discoveryd/api.sock
-        for root, else $XDG_RUNTIME_DIR/rs-discoveryd.sock."""
+        for root, else $XDG_RUNTIME_DIR/rs-discoveryd.sock (or, when that does not exist, the
+        system service's /run/rs-discoveryd/api.sock if it does)."""
         runtime = os.environ.get("RUNTIME_DIRECTORY")
         if runtime:
             return Endpoint(path=runtime.split(":")[0] + "/api.sock")
         if os.geteuid() == 0:
             return Endpoint(path="/run/rs-discoveryd/api.sock")
         xdg = os.environ.get("XDG_RUNTIME_DIR") or f"/run/user/{os.geteuid()}"
-        return Endpoint(path=xdg + "/rs-discoveryd.sock")
+        own = xdg + "/rs-discoveryd.sock"
+        # A user with no daemon of their own asks the system's service.
+        if not os.path.exists(own) and os.path.exists("/run/rs-discoveryd/api.sock"):
+            return Endpoint(path="/run/rs-discoveryd/api.sock")
+        return Endpoint(path=own)
 
     @staticmethod
     def from_environment() -> "Endpoint":
