@@ -243,7 +243,11 @@ API: GET /v1/devices, /v1/devices/{id}, /v1/events (Server-Sent Events),
   curl --unix-socket /run/rs-discoveryd/api.sock http://localhost/v1/devices
   curl http://127.0.0.1:8035/v1/devices
 
-Signals: SIGTERM/SIGINT stop; SIGUSR1 rebuilds every domain's DDS participant.
+Signals: SIGTERM/SIGINT stop; SIGHUP re-reads the configuration (joins new domains,
+leaves removed ones; an invalid file keeps the running configuration); SIGUSR1
+rebuilds every domain's DDS participant (after a network cut).
+Under systemd: Type=notify (READY, STATUS, WATCHDOG), socket activation by
+rs-discoveryd.socket. See rs-discoveryd(8).
 Exit status: 0 stopped cleanly, 1 runtime failure, 2 bad usage or configuration.
 )";
 }
