@@ -173,7 +173,12 @@ def daemon(tmp_path):
         args = []
         for d in domains:
             args += ["--domain", str(d)]
-        args += ["--socket", sock, "--http", f"127.0.0.1:{port}" if port else "off", "--no-usb",
+        # An explicit, empty config: /etc/rs-discoveryd/config.json (the package
+        # test installs one for a while) must not reach into other tests.
+        empty = os.path.join(tmp_path, "empty-config.json")
+        with open(empty, "w") as f:
+            f.write("{}")
+        args += ["--config", empty, "--socket", sock, "--http", f"127.0.0.1:{port}" if port else "off", "--no-usb",
                  "--log-level", "debug"]
         args += list(extra)
         d = Daemon(args, str(tmp_path), sock, port, env)

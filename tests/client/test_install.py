@@ -53,6 +53,10 @@ def test_installed_files(prefix):
     assert "rsdiscovery::detail::" not in syms and "httplib::" not in syms
 
 
+# The sanitizer build's libraries need their consumers built the same way.
+SANITIZER_FLAGS = os.environ.get("RSD_SANITIZER_FLAGS", "")
+
+
 def test_find_package(prefix, tmp_path):
     src = tmp_path / "consumer"
     src.mkdir()
@@ -66,7 +70,8 @@ def test_find_package(prefix, tmp_path):
         "target_link_libraries(static_demo PRIVATE rsdiscovery::rsdiscovery_static)\n")
     build = tmp_path / "build"
     gen = ["-G", "Ninja"] if shutil.which("ninja") else []
-    run(["cmake", "-S", str(src), "-B", str(build), f"-DCMAKE_PREFIX_PATH={prefix}"] + gen)
+    run(["cmake", "-S", str(src), "-B", str(build), f"-DCMAKE_PREFIX_PATH={prefix}",
+         f"-DCMAKE_CXX_FLAGS={SANITIZER_FLAGS}", f"-DCMAKE_EXE_LINKER_FLAGS={SANITIZER_FLAGS}"] + gen)
     run(["cmake", "--build", str(build), "-j2"])
     check_runs(str(build / "shared_demo"), libdir(prefix))
     check_runs(str(build / "static_demo"), "")
@@ -81,5 +86,6 @@ def test_pkg_config(prefix, tmp_path):
     incs = [f[2:] for f in flags if f.startswith("-I")]
     assert [os.path.realpath(i) for i in incs] == [os.path.realpath(prefix / "include")], flags
     out = tmp_path / "demo"
-    run(["c++", "-std=c++17", "-Wall", "-Werror", EXAMPLE_SRC, "-o", str(out)] + flags, env=env)
+    run(["c++", "-std=c++17", "-Wall", "-Werror", EXAMPLE_SRC, "-o", str(out)] + SANITIZER_FLAGS.split() + flags,
+        env=env)
     check_runs(str(out), lib)
