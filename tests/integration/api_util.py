@@ -15,28 +15,18 @@ import time
 import yaml
 from openapi_schema_validator import OAS30Validator
 
+from conftest import UnixHTTPConnection
+
 SOURCE_DIR = os.environ.get("RSD_SOURCE_DIR") or os.path.dirname(
     os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SPEC_PATH = os.path.join(SOURCE_DIR, "proto", "openapi.yaml")
-
-
-class UnixConnection(http.client.HTTPConnection):
-    def __init__(self, path, timeout=5.0):
-        super().__init__("localhost", timeout=timeout)
-        self.unix_path = path
-
-    def connect(self):
-        s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-        s.settimeout(self.timeout)
-        s.connect(self.unix_path)
-        self.sock = s
 
 
 def connection(target, timeout=5.0):
     """target: a Unix socket path (str) or a (host, port) tuple."""
     if isinstance(target, tuple):
         return http.client.HTTPConnection(target[0], target[1], timeout=timeout)
-    return UnixConnection(target, timeout=timeout)
+    return UnixHTTPConnection(target, timeout=timeout)
 
 
 def request(target, path, method="GET", headers=None, body=None, timeout=5.0):
