@@ -7,9 +7,7 @@
 #include "service/listen_sockets.hpp"
 #include "service/service.hpp"
 #include "table/shared_table.hpp"
-#ifdef RSD_HAVE_USB  // usb (issue 3): local cameras
 #include "usb/usb_source.hpp"
-#endif
 
 #include <poll.h>
 #include <sys/stat.h>
@@ -99,13 +97,12 @@ int main(int argc, char** argv) {
   }
   rsd::service::Service service(table, domains, config, std::vector<std::string>(argv, argv + argc));
 
-#ifdef RSD_HAVE_USB  // usb (issue 3): local cameras; without USB access it logs why and DDS carries on
+  // Local cameras; without USB access the source logs why and DDS carries on.
   std::unique_ptr<rsd::usb::UsbSource> usb;
   if (config.usb) {
     usb = std::make_unique<rsd::usb::UsbSource>(table);
     usb->start();
   }
-#endif
 
   rsd::api::StatusSources status;
   status.version = RSD_VERSION;
@@ -167,9 +164,7 @@ int main(int argc, char** argv) {
   // Streams first (they wait on the table), then listeners, then DDS.
   table.close();
   api.stop();
-#ifdef RSD_HAVE_USB  // usb (issue 3)
   if (usb) usb->stop();
-#endif
   domains.stop();
   close(signal_fd);
   return 0;
