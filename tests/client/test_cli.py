@@ -13,7 +13,7 @@ import time
 
 import pytest
 from client_util import CLI, DOMAIN_RANGE, fold, rs_discover
-from conftest import Daemon, device_info, free_port, wait_for
+from conftest import device_info, free_port, wait_for
 
 ANSI = re.compile(r"\x1b\[[0-9;]*m")
 COLUMNS = ["NAME", "SERIAL", "SOURCE", "DOMAIN/PORT", "ADDRESS", "STATE", "AGE"]
@@ -250,14 +250,12 @@ def test_watch_lines_and_json(daemon, realdds_server, domain):
     assert w.stop() == 0, w.stderr  # a signal ends it cleanly
 
 
-def test_watch_through_a_daemon_restart_loses_nothing(realdds_server, domain, tmp_path):
+def test_watch_through_a_daemon_restart_loses_nothing(realdds_server, daemon, domain, tmp_path):
     sock = str(tmp_path / "api.sock")
     ep = "unix:" + sock
 
-    def start():
-        port = free_port()
-        return Daemon(["--domain", str(domain), "--socket", sock, "--http", f"127.0.0.1:{port}", "--no-usb"],
-                      str(tmp_path), sock, port).wait_ready()
+    def start():  # the fixture stops it at the end, whatever happens
+        return daemon([domain], socket=sock)
 
     d = start()
     srv = realdds_server(domain, [device_info(11)])
@@ -274,25 +272,22 @@ def test_watch_through_a_daemon_restart_loses_nothing(realdds_server, domain, tm
     srv.command(cmd="remove", **{"topic-root": "realsense/D455_123622270711"})
     srv.command(cmd="add", info=device_info(13))
     d2 = start()
-    try:
-        want = sorted(f"dds-{domain}-realsense.D455_1236222707{n}" for n in (12, 13))
-        wait_for(lambda: d2.device_ids() == want, 20, what="the restarted daemon to see both cameras")
-        events = []
+    want = sorted(f"dds-{domain}-realsense.D455_1236222707{n}" for n in (12, 13))
+    wait_for(lambda: d2.device_ids() == want, 20, what="the restarted daemon to see both cameras")
+    events = []
 
-        def caught_up():
-            while True:
-                try:
-                    item = w.lines.get_nowait()
-                except queue.Empty:
-                    return sorted(view) == want
-                assert item is not None, "watch ended: " + w.proc.stderr.read()
-                events.append(item)
-                fold(view, item)
+    def caught_up():
+        while True:
+            try:
+                item = w.lines.get_nowait()
+            except queue.Empty:
+                return sorted(view) == want
+            assert item is not None, "watch ended: " + w.proc.stderr.read()
+            events.append(item)
+            fold(view, item)
 
-        wait_for(caught_up, 20, what="the watch's view to match the restarted daemon")
-        removed = [e for e in events if e["event"] == "removed"]
-        assert any(e["device"]["serial"] == "123622270711" for e in removed), events
-        assert any(e["event"] == "added" and e["device"]["serial"] == "123622270713" for e in events), events
-        assert w.stop() == 0, w.stderr
-    finally:
-        d2.stop()
+    wait_for(caught_up, 20, what="the watch's view to match the restarted daemon")
+    removed = [e for e in events if e["event"] == "removed"]
+    assert any(e["device"]["serial"] == "123622270711" for e in removed), events
+    assert any(e["event"] == "added" and e["device"]["serial"] == "123622270713" for e in events), events
+    assert w.stop() == 0, w.stderr

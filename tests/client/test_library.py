@@ -7,7 +7,7 @@ import threading
 
 import pytest
 from client_util import DOMAIN_RANGE, DRIVER, EXAMPLE, fold
-from conftest import Daemon, device_info, free_port, wait_for
+from conftest import device_info, wait_for
 
 
 @pytest.fixture
@@ -66,13 +66,11 @@ class Subscriber:
         return self.proc.wait(10)
 
 
-def test_callback_watch_survives_a_daemon_restart(realdds_server, domain, tmp_path):
+def test_callback_watch_survives_a_daemon_restart(realdds_server, daemon, domain, tmp_path):
     sock = str(tmp_path / "api.sock")
 
-    def start():
-        port = free_port()
-        return Daemon(["--domain", str(domain), "--socket", sock, "--http", f"127.0.0.1:{port}", "--no-usb"],
-                      str(tmp_path), sock, port).wait_ready()
+    def start():  # the fixture stops it at the end, whatever happens
+        return daemon([domain], socket=sock)
 
     d = start()
     srv = realdds_server(domain, [device_info(31)])
@@ -98,11 +96,8 @@ def test_callback_watch_survives_a_daemon_restart(realdds_server, domain, tmp_pa
     srv.command(cmd="remove", **{"topic-root": "realsense/D455_123622270731"})
     srv.command(cmd="add", info=device_info(33))
     d2 = start()
-    try:
-        want = sorted(f"dds-{domain}-realsense.D455_1236222707{n}" for n in (32, 33))
-        wait_for(lambda: d2.device_ids() == want, 20, what="the restarted daemon's view")
-        wait_for(lambda: take() and sorted(view) == want, 20, what="the callback's view to match it")
-        assert "disconnected" in statuses and statuses[-1] == "connected", statuses
-        assert sub.stop() == 0
-    finally:
-        d2.stop()
+    want = sorted(f"dds-{domain}-realsense.D455_1236222707{n}" for n in (32, 33))
+    wait_for(lambda: d2.device_ids() == want, 20, what="the restarted daemon's view")
+    wait_for(lambda: take() and sorted(view) == want, 20, what="the callback's view to match it")
+    assert "disconnected" in statuses and statuses[-1] == "connected", statuses
+    assert sub.stop() == 0
