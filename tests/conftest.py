@@ -49,6 +49,16 @@ class UnixHTTPConnection(http.client.HTTPConnection):
         self.sock = s
 
 
+def request_once(conn, path, method="GET", headers=None, body=None):
+    """One request on `conn`, which is closed after: (status, lower-cased headers, body bytes)."""
+    try:
+        conn.request(method, path, body=body, headers=headers or {})
+        r = conn.getresponse()
+        return r.status, {k.lower(): v for k, v in r.getheaders()}, r.read()
+    finally:
+        conn.close()
+
+
 def free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -115,12 +125,7 @@ class Daemon:
             conn = UnixHTTPConnection(self.socket, timeout=timeout)
         else:
             conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=timeout)
-        try:
-            conn.request(method, path, body=body, headers=headers or {})
-            r = conn.getresponse()
-            return r.status, {k.lower(): v for k, v in r.getheaders()}, r.read()
-        finally:
-            conn.close()
+        return request_once(conn, path, method, headers, body)
 
     def get_json(self, path, via="unix", expect=200):
         status, _, body = self.request(path, via=via)

@@ -15,7 +15,7 @@ import time
 import yaml
 from openapi_schema_validator import OAS30Validator
 
-from conftest import UnixHTTPConnection
+from conftest import UnixHTTPConnection, request_once
 
 SOURCE_DIR = os.environ.get("RSD_SOURCE_DIR") or os.path.dirname(
     os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -31,13 +31,7 @@ def connection(target, timeout=5.0):
 
 def request(target, path, method="GET", headers=None, body=None, timeout=5.0):
     """Returns (status, lower-cased headers, body bytes)."""
-    conn = connection(target, timeout)
-    try:
-        conn.request(method, path, body=body, headers=headers or {})
-        r = conn.getresponse()
-        return r.status, {k.lower(): v for k, v in r.getheaders()}, r.read()
-    finally:
-        conn.close()
+    return request_once(connection(target, timeout), path, method, headers, body)
 
 
 def get_json(target, path, expect=200):

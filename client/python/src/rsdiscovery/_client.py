@@ -525,6 +525,9 @@ class Client:
         status, body = self._request(path)
         if status != 200:
             raise self._status_error(path, status, body)
+        return self._json_object(path, body)
+
+    def _json_object(self, path: str, body: bytes) -> Dict[str, Any]:
         try:
             doc = json.loads(body)
         except ValueError:
@@ -551,12 +554,10 @@ class Client:
             raise NotFound(f"no device {device_id!r} at rs-discoveryd ({self.endpoint})")
         if status != 200:
             raise self._status_error(path, status, body)
-        try:
-            doc = json.loads(body)
-        except ValueError:
-            doc = None
-        if not isinstance(doc, dict) or "id" not in doc:
-            raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: GET {path}")
+        doc = self._json_object(path, body)
+        if "id" not in doc:
+            raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: GET {path} "
+                                 "returned a device without an id")
         return doc
 
     def domains(self) -> List[Dict[str, Any]]:
