@@ -107,6 +107,7 @@ int main(int argc, char** argv) {
   rsd::api::StatusSources status;
   status.version = RSD_VERSION;
   status.domains = [&domains] { return domains.status(); };
+  if (usb) status.usb = [&usb] { return usb->status(); };
   rsd::api::ApiServer api(table, status);
   rsd::api::ApiOptions api_options;
   api_options.unix_socket = config.socket_path;

@@ -220,17 +220,25 @@ void ApiServer::Impl::handle_domains(const httplib::Request& req, httplib::Respo
 
 void ApiServer::Impl::handle_health(const httplib::Request&, httplib::Response& res) {
   auto snap = table.snapshot();
+  nlohmann::json usb = {{"state", "off"}};
+  if (status.usb) {
+    const auto u = status.usb();
+    usb = {{"state", u.state}, {"devices", u.devices}};
+    if (!u.error.empty()) usb["error"] = u.error;
+  }
   send_json(res, 200,
             {{"status", "ok"},
              {"version", status.version},
              {"devices", snap.devices.size()},
-             {"generation", snap.generation}});
+             {"generation", snap.generation},
+             {"usb", std::move(usb)}});
 }
 
 void ApiServer::Impl::handle_metrics(const httplib::Request&, httplib::Response& res) {
   MetricsInput in;
   in.version = status.version;
   in.domains = domains();
+  if (status.usb) in.usb = status.usb();
   auto snap = table.snapshot();
   in.devices_per_domain = count_by_domain(snap.devices);
   in.devices_total = snap.devices.size();

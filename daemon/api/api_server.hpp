@@ -3,6 +3,7 @@
 
 #include "dds/domain_status.hpp"
 #include "table/shared_table.hpp"
+#include "usb/usb_status.hpp"
 
 #include <functional>
 #include <memory>
@@ -34,6 +35,8 @@ struct ApiOptions {
 // Everything the API shows that is not the device table itself.
 struct StatusSources {
   std::function<std::vector<DomainStatus>()> domains;
+  // Empty when USB is turned off (--no-usb / "usb": false).
+  std::function<usb::UsbStatus()> usb;
   std::string version;
 };
 

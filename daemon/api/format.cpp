@@ -233,6 +233,14 @@ std::string render_metrics(const MetricsInput& in) {
   for (const auto& d : in.domains)
     w.sample("rsd_domain_rebuilds_total", {{"domain", std::to_string(d.domain)}}, d.rebuilds);
 
+  if (in.usb) {
+    w.family("rsd_usb_up", "gauge", "1 when local USB is watched (hotplug or polling), by state.");
+    w.sample("rsd_usb_up", {{"state", in.usb->state}},
+             in.usb->state == "hotplug" || in.usb->state == "polling" ? 1 : 0);
+    w.family("rsd_usb_devices", "gauge", "RealSense cameras on local USB.");
+    w.sample("rsd_usb_devices", {}, in.usb->devices);
+  }
+
   w.family("rsd_events_sent_total", "counter", "Device events written to SSE clients.");
   w.sample("rsd_events_sent_total", {}, in.events_sent);
   w.family("rsd_event_streams", "gauge", "Open SSE streams.");

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "dds/domain_status.hpp"
+#include "usb/usb_status.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -71,6 +72,7 @@ struct MetricsInput {
   std::size_t event_streams = 0;
   std::uint64_t event_streams_rejected = 0;
   std::map<int, std::uint64_t> requests_by_status;
+  std::optional<usb::UsbStatus> usb;  // nothing when USB is turned off
 };
 
 // Prometheus text exposition format 0.0.4.

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "table/shared_table.hpp"
+#include "usb/usb_status.hpp"
 
 #include <chrono>
 #include <cstdint>
@@ -24,17 +25,6 @@ struct UsbOptions {
   // Defaults, overridden by RSD_USB_FORCE_POLLING=1 and RSD_USB_POLL_MS=<ms>
   // (for tests and odd hosts; not a user-facing setting).
   static UsbOptions from_environment();
-};
-
-struct UsbStatus {
-  // "stopped" (not started, or stopped), "unavailable" (no USB access here: see
-  // error), "hotplug" (libusb hotplug events), "polling" (re-enumerating).
-  std::string state = "stopped";
-  std::string error;
-  std::size_t devices = 0;       // RealSense devices on USB now
-  std::uint64_t arrived = 0;     // arrivals taken into the table
-  std::uint64_t left = 0;        // departures taken out of it
-  std::uint64_t ignored = 0;     // Intel devices that are not RealSense cameras
 };
 
 class UsbSource {

@@ -157,6 +157,9 @@ def test_d455_on_usb3_present_at_start(bed, usb_daemon):
     assert d.device_ids("?product-line=D400") == [D455_ID]
     # The root hubs are not Intel devices: nothing else is listed.
     assert d.device_ids() == [D455_ID]
+    # What the USB side itself reports, for users and monitoring.
+    assert d.get_json("/healthz")["usb"] == {"state": "hotplug", "devices": 1}
+    assert "rsd_usb_devices 1" in d.request("/metrics")[2].decode().splitlines()
 
 
 def test_d435_hotplugged_on_usb2_is_warned_about_then_unplugged(bed, usb_daemon):
@@ -344,6 +347,7 @@ def test_no_usb_flag_and_config(bed, usb_daemon, tmp_path):
     d2, _ = usb_daemon(extra=["--config", str(config)])
     assert d.device_ids() == [] and d2.device_ids() == []
     assert "usb:" not in d.log() and "usb:" not in d2.log()
+    assert d.get_json("/healthz")["usb"] == {"state": "off"} == d2.get_json("/healthz")["usb"]
 
 
 def test_without_usb_access_logs_one_line_and_serves_dds(bed, usb_daemon, realdds_server):
@@ -351,6 +355,8 @@ def test_without_usb_access_logs_one_line_and_serves_dds(bed, usb_daemon, realdd
     d, domain = usb_daemon()
     lines = [line for line in d.log().splitlines() if "usb: " in line]
     assert len(lines) == 1 and "not listed" in lines[0] and "/dev/bus/usb" in lines[0], lines
+    usb = d.get_json("/healthz")["usb"]
+    assert usb["state"] == "unavailable" and "/dev/bus/usb" in usb["error"], usb
     realdds_server(domain, [device_info(1)])
     wait_for(lambda: d.device_ids("?source=dds"), 15, what="DDS discovery still working")
 
