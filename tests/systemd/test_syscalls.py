@@ -61,9 +61,17 @@ def test_every_system_call_and_socket_family_is_allowed_by_the_unit(tmp_path, do
     p = subprocess.Popen(["strace", "-f", "-qq", "-o", trace, DAEMON, "--config", str(config), "--socket", sock,
                           "--http", f"127.0.0.1:{port}"], stdout=log, stderr=subprocess.STDOUT)
     def daemon_pid():
+        # strace forks short-lived probes of its own at start; the daemon is the
+        # child that has exec'd the daemon's binary.
         with open(f"/proc/{p.pid}/task/{p.pid}/children") as f:
-            kids = f.read().split()
-        return int(kids[0]) if kids else None
+            kids = [int(k) for k in f.read().split()]
+        for kid in kids:
+            try:
+                if os.path.realpath(f"/proc/{kid}/exe") == os.path.realpath(DAEMON):
+                    return kid
+            except OSError:
+                pass
+        return None
 
     try:
         pid = wait_for(daemon_pid, what="the traced daemon")  # signals go to it, not to strace
