@@ -112,9 +112,10 @@ def test_real_device_listed_validated_and_streamed(daemon, free_domain, realdds_
     assert domains["domains"][0]["devices"] == 1 and domains["domains"][0]["accepted"] >= 1
     health = get_json(d.socket, "/healthz")
     assert health["devices"] == 1
-    m = parse_metrics(request(d.socket, "/metrics")[2].decode())
+    # The event is counted once written, so the stream's reader may have had it first.
+    m = wait_for(lambda: (lambda x: x if metric(x, "rsd_events_sent_total") >= 1 else None)(
+        parse_metrics(request(d.socket, "/metrics")[2].decode())), what="the added event counted")
     assert metric(m, "rsd_devices", domain=str(free_domain)) == 1
-    assert metric(m, "rsd_events_sent_total") >= 1
 
     # Miss the removal while disconnected, then resume from the last id seen.
     stream.close()
