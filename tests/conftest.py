@@ -258,6 +258,24 @@ def realdds_server():
             s.kill()
 
 
+class JsonLinesProcess:
+    """A child process whose stdout is JSON lines, read on a thread into `lines`
+    (None once stdout ends)."""
+
+    def __init__(self, args, **popen):
+        import queue
+        import threading
+
+        self.proc = subprocess.Popen(args, stdout=subprocess.PIPE, text=True, **popen)
+        self.lines = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self):
+        for line in self.proc.stdout:
+            self.lines.put(json.loads(line))
+        self.lines.put(None)
+
+
 class EventStream:
     """A client of /v1/events, read on a thread so tests can wait with deadlines."""
 

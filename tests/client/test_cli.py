@@ -8,12 +8,11 @@ import select
 import shutil
 import signal
 import subprocess
-import threading
 import time
 
 import pytest
 from client_util import CLI, DOMAIN_RANGE, fold, rs_discover
-from conftest import device_info, free_port, wait_for
+from conftest import JsonLinesProcess, device_info, free_port, wait_for
 
 ANSI = re.compile(r"\x1b\[[0-9;]*m")
 COLUMNS = ["NAME", "SERIAL", "SOURCE", "DOMAIN/PORT", "ADDRESS", "STATE", "AGE"]
@@ -196,19 +195,11 @@ def test_colour_only_on_a_terminal(daemon, domain):
     assert ANSI.search(rs_discover("domains", "--color", "always", endpoint=ep).stdout)
 
 
-class Watcher:
+class Watcher(JsonLinesProcess):
     """`rs-discover watch --json` as a process; its lines read on a thread."""
 
     def __init__(self, endpoint, *extra):
-        self.proc = subprocess.Popen([CLI, "--endpoint", endpoint, "watch", "--json", *extra],
-                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        self.lines = queue.Queue()
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self):
-        for line in self.proc.stdout:
-            self.lines.put(json.loads(line))
-        self.lines.put(None)
+        super().__init__([CLI, "--endpoint", endpoint, "watch", "--json", *extra], stderr=subprocess.PIPE)
 
     def next(self, timeout=20):
         try:
@@ -232,7 +223,6 @@ def test_watch_lines_and_json(daemon, realdds_server, domain):
     human = subprocess.Popen([CLI, "--endpoint", ep, "watch", "--count", "2", "--timeout", "40"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     w = Watcher(ep)
-    wait_for(lambda: d.get_json("/metrics".replace("/metrics", "/healthz")), what="daemon")
     srv = realdds_server(domain, [device_info(3)])
     e = w.next()
     assert e["event"] == "added" and e["device"]["serial"] == "123622270703" and not e["synthetic"]

@@ -1,13 +1,11 @@
 """The C++ library against the real daemon: the example program, the push-style watch
 (callback) through a daemon restart, and wait_for."""
-import json
 import queue
 import subprocess
-import threading
 
 import pytest
 from client_util import DOMAIN_RANGE, DRIVER, EXAMPLE, fold
-from conftest import device_info, wait_for
+from conftest import JsonLinesProcess, device_info, wait_for
 
 
 @pytest.fixture
@@ -39,17 +37,11 @@ def test_wait_for(daemon, realdds_server, domain):
     assert out.strip() == f"dds-{domain}-realsense.D455_123622270722"
 
 
-class Subscriber:
-    def __init__(self, endpoint):
-        self.proc = subprocess.Popen([DRIVER, "subscribe", endpoint], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     text=True)
-        self.lines = queue.Queue()
-        threading.Thread(target=self._read, daemon=True).start()
+class Subscriber(JsonLinesProcess):
+    """The library's callback watch (test driver) as a process; stdin closing stops it."""
 
-    def _read(self):
-        for line in self.proc.stdout:
-            self.lines.put(json.loads(line))
-        self.lines.put(None)
+    def __init__(self, endpoint):
+        super().__init__([DRIVER, "subscribe", endpoint], stdin=subprocess.PIPE)
 
     def drain(self):
         out = []
