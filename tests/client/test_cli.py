@@ -5,7 +5,6 @@ import pty
 import queue
 import re
 import select
-import shutil
 import signal
 import subprocess
 import time
