@@ -73,6 +73,7 @@ def test_every_system_call_and_socket_family_is_allowed_by_the_unit(tmp_path, do
                 pass
         return None
 
+    pid = None
     try:
         pid = wait_for(daemon_pid, what="the traced daemon")  # signals go to it, not to strace
 
@@ -97,8 +98,13 @@ def test_every_system_call_and_socket_family_is_allowed_by_the_unit(tmp_path, do
         assert p.wait(30) == 0  # strace exits with the daemon's status
     finally:
         if p.poll() is None:
-            p.kill()
+            p.kill()  # strace killed leaves its tracee running: end the daemon too
             p.wait()
+            if pid:
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
         log.close()
 
     used, used_families = set(), set()
