@@ -175,6 +175,7 @@ void DomainSession::create_reader() {
   reader_ = reader;
   std::lock_guard lock(mutex_);
   state_ = "running";
+  if (!first_reader_at_) first_reader_at_ = Clock::now();
 }
 
 void DomainSession::delete_reader() {
@@ -427,6 +428,8 @@ DomainStatus DomainSession::status() const {
   s.stopping = stopping_;
   s.rejected = rejected_;
   s.rebuilds = rebuilds_;
+  s.complete = state_ == "failed" ||
+               (first_reader_at_ && Clock::now() - *first_reader_at_ >= options_.initial_grace);
   return s;
 }
 

@@ -39,6 +39,10 @@ struct SessionOptions {
   // After the reader or the participant is made anew, a device whose writer has
   // not matched again by then is gone.
   std::chrono::milliseconds reconcile_grace{4000};
+  // realdds servers broadcast to a reader as soon as it matches, which takes a
+  // few ms once discovery has settled: this long after the first reader exists,
+  // the domain's first discovery counts as complete (DomainStatus::complete).
+  std::chrono::milliseconds initial_grace{1000};
 };
 
 class DomainSession {
@@ -120,6 +124,7 @@ class DomainSession {
   std::map<std::string, Server> servers_;                // by participant GUID
   std::map<std::string, std::string> device_writer_;     // device id -> writer GUID
   std::optional<Clock::time_point> reconcile_at_;
+  std::optional<Clock::time_point> first_reader_at_;  // kept across rebuilds
   std::uint64_t accepted_ = 0, stopping_ = 0, rebuilds_ = 0;
   std::map<std::string, std::uint64_t> rejected_;
 };
