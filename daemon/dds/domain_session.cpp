@@ -1,6 +1,6 @@
 #include "dds/domain_session.hpp"
 
-#include "dds/topic_name_shim.hpp"
+#include "dds/flexible_topic.hpp"
 #include "log/log.hpp"
 
 #include "flexible.h"
@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <stdexcept>
 
 namespace rsd::dds {
@@ -41,7 +42,11 @@ std::vector<std::string> split_addresses(const char* value) {
     } else if (std::count(item.begin(), item.end(), ':') == 1) {
       item = item.substr(0, item.find(':'));
     }
-    if (!item.empty() && is_valid_utf8(item) &&
+    // Cyclone 11 peers list their multicast locators too (239.255.0.1 seen):
+    // a group address is not where the camera is.
+    const bool multicast = item.starts_with("ff") || (item.find('.') != std::string::npos &&
+                                                      std::atoi(item.c_str()) >= 224 && std::atoi(item.c_str()) <= 239);
+    if (!item.empty() && !multicast && is_valid_utf8(item) &&
         std::find(out.begin(), out.end(), item) == out.end())
       out.push_back(item);
   }
@@ -99,7 +104,7 @@ void DomainSession::start() {
   dds_qos_t* tqos = dds_create_qos();
   dds_qset_reliability(tqos, DDS_RELIABILITY_RELIABLE, DDS_SECS(10));
   dds_qset_durability(tqos, DDS_DURABILITY_VOLATILE);
-  topic_ = create_topic_allowing_dash(participant_, &realdds_topics_raw_flexible_desc, kDeviceInfoTopic, tqos);
+  topic_ = create_flexible_topic(participant_, kDeviceInfoTopic, tqos);
   dds_delete_qos(tqos);
   if (topic_ < 0) {
     const std::string why = dds_error("cannot create topic realsense/device-info", topic_);

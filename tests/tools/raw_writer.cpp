@@ -6,7 +6,7 @@
 // prints "matched" once a reader on the topic is matched, then reads lines
 // "FORMAT HEX" (FORMAT: the data_format number, HEX: the payload in hex, "-"
 // for none) from stdin, writes each as one sample and answers "ok" or "error ...".
-#include "dds/topic_name_shim.hpp"
+#include "dds/flexible_topic.hpp"
 
 #include "flexible.h"
 

@@ -1,6 +1,7 @@
-// The one place the daemon bends Cyclone DDS 0.10: a '-' in the realdds topic
-// name. It must create the topic, and leave the thread's ctype table as it was.
-#include "dds/topic_name_shim.hpp"
+// Where the daemon bends Cyclone DDS: a '-' in the realdds topic name (it must
+// create the topic and leave the thread's ctype table as it was), and a type
+// without XTypes information (so no peer's type object is ever asked for).
+#include "dds/flexible_topic.hpp"
 
 #include "flexible.h"
 
@@ -38,5 +39,25 @@ TEST(TopicNameShim, StillRejectsWhatIsReallyInvalid) {
   EXPECT_LT(rsd::dds::create_topic_allowing_dash(participant, &realdds_topics_raw_flexible_desc,
                                                  "has space", nullptr),
             0);
+  dds_delete(participant);
+}
+
+TEST(FlexibleTopic, CarriesNoTypeInformationButTheSameTypeName) {
+  const dds_topic_descriptor_t* d = rsd::dds::flexible_descriptor();
+  EXPECT_EQ(d->m_flagset & DDS_TOPIC_XTYPES_METADATA, 0u);
+  EXPECT_EQ(d->type_information.sz, 0u);
+  EXPECT_EQ(d->type_mapping.sz, 0u);
+  // idlc's own descriptor does carry it: the daemon must not use that one.
+  EXPECT_NE(realdds_topics_raw_flexible_desc.m_flagset & DDS_TOPIC_XTYPES_METADATA, 0u);
+  EXPECT_STREQ(d->m_typename, realdds_topics_raw_flexible_desc.m_typename);
+  EXPECT_EQ(d->m_ops, realdds_topics_raw_flexible_desc.m_ops);  // same wire layout
+
+  const dds_entity_t participant = dds_create_participant(kDomain, nullptr, nullptr);
+  ASSERT_GT(participant, 0);
+  const dds_entity_t topic = rsd::dds::create_flexible_topic(participant, "realsense/device-info", nullptr);
+  ASSERT_GT(topic, 0) << dds_strretcode(topic);
+  dds_typeinfo_t* info = nullptr;
+  EXPECT_LT(dds_get_typeinfo(topic, &info), 0);  // nothing to announce, nothing to look up
+  if (info) dds_free_typeinfo(info);
   dds_delete(participant);
 }

@@ -1,0 +1,113 @@
+"""Other Cyclone DDS versions on the device-info topic: PyPI's cyclonedds 11 (its
+own libddsc, XTypes type information on every endpoint) writing and reading
+beside the daemon. One such peer used to crash the daemon inside libddsc while it
+parsed the peer's type object (issue 8): the daemon must keep running, take the
+peer's device-info by type name, and keep serving realdds as before."""
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from conftest import JsonLinesProcess, TESTS_DIR, device_info, wait_for
+from test_realdds import dds_id
+
+PEER = os.path.join(TESTS_DIR, "tools", "cyclone_peer.py")
+
+
+class CyclonePeer(JsonLinesProcess):
+    def __init__(self, domain, role, octet):
+        super().__init__([sys.executable, PEER, "--domain", str(domain), "--octet", octet, role],
+                         stdin=subprocess.PIPE)
+
+    def next(self, timeout=30):
+        line = self.lines.get(timeout=timeout)
+        assert line is not None, "the Cyclone peer exited"
+        return line
+
+    def send(self, **msg):
+        self.proc.stdin.write(json.dumps(msg) + "\n")
+        self.proc.stdin.flush()
+        assert self.next() == {"ok": True}
+
+    def close(self):
+        if self.proc.poll() is None:
+            self.proc.stdin.close()
+            self.proc.wait(10)
+
+
+@pytest.fixture
+def cyclone_peer():
+    peers = []
+
+    def start(domain, role, octet="uint8"):
+        p = CyclonePeer(domain, role, octet)
+        peers.append(p)
+        return p
+
+    yield start
+    for p in peers:
+        if p.proc.poll() is None:
+            p.proc.kill()
+            p.proc.wait()
+
+
+# uint8 octets give a type id other than idlc's: the peer whose type object the
+# old daemon asked for, and crashed on; byte octets give idlc's own type id.
+@pytest.mark.parametrize("octet", ["uint8", "byte"])
+def test_cyclone11_writer_and_reader_beside_realdds(free_domain, daemon, realdds_server, cyclone_peer, octet):
+    camera = device_info(1)
+    realdds = realdds_server(free_domain, [camera])
+    d = daemon([free_domain])
+    wait_for(lambda: d.device_ids() == [dds_id(free_domain, camera)], what="the realdds camera")
+
+    reader = cyclone_peer(free_domain, "reader", octet)
+    assert reader.next() == {"reading": True}
+    writer = cyclone_peer(free_domain, "writer", octet)
+    assert writer.next() == {"matched": True}
+    other = device_info(2, name="Cyclone 11 test device")
+    # A writer that was just matched may write before the daemon's Cyclone knows
+    # it (then the sample is lost for good): write until the daemon lists it.
+    def listed():
+        if d.proc.poll() is not None:
+            pytest.fail(f"the daemon died ({d.proc.returncode}):\n{d.log()[-3000:]}")
+        if dds_id(free_domain, other) in d.device_ids():
+            return True
+        writer.send(json=other)
+        return False
+    wait_for(listed, timeout=20, interval=0.5, what="the Cyclone 11 writer's device")
+    dev = {x["id"]: x for x in d.devices()}[dds_id(free_domain, other)]
+    assert dev["name"] == "Cyclone 11 test device" and dev["serial"] == other["serial"]
+    # Cyclone 11 announces its multicast locator among its addresses: not the camera's.
+    assert dev["server"]["addresses"] and not any(a.startswith("239.") for a in dev["server"]["addresses"])
+    # The peer's reader is a working reader on the same topic (whether it catches
+    # realdds' one broadcast is the late-reader race of any Cyclone reader).
+    writer.send(json=other)
+    wait_for(lambda: any(other["topic-root"] in x.get("data", "") for x in _drain(reader)), timeout=20,
+             what="the Cyclone 11 reader receiving the Cyclone 11 writer's device-info")
+
+    # realdds is served as before, with the peers still there.
+    late = device_info(3)
+    realdds.command(cmd="add", info=late)
+    wait_for(lambda: dds_id(free_domain, late) in d.device_ids(), what="a new realdds device")
+    realdds.command(cmd="disconnect", **{"topic-root": camera["topic-root"]})
+    wait_for(lambda: dds_id(free_domain, camera) not in d.device_ids(), what="a realdds 'stopping'")
+
+    # The peer going away takes its device with it (its writer is gone).
+    writer.close()
+    wait_for(lambda: dds_id(free_domain, other) not in d.device_ids(), what="the Cyclone 11 device removed")
+    reader.close()
+    assert d.proc.poll() is None, d.log()[-3000:]
+    assert d.healthy()
+    realdds.quit()
+
+
+def _drain(peer):
+    out = []
+    while not peer.lines.empty():
+        line = peer.lines.get()
+        if line is None:
+            break
+        out.append(line)
+    return out
