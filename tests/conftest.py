@@ -105,7 +105,7 @@ def free_domain(domains):
 
 
 class Daemon:
-    def __init__(self, args, tmpdir, socket_path, port, env=None):
+    def __init__(self, args, tmpdir, socket_path, port, env=None, prefix=()):
         self.socket = socket_path
         self.port = port
         self.url = f"http://127.0.0.1:{port}" if port else None
@@ -113,7 +113,9 @@ class Daemon:
         self._log = open(self.log_path, "wb")
         full_env = dict(os.environ)
         full_env.update(env or {})
-        self.proc = subprocess.Popen([DAEMON] + args, stdout=self._log, stderr=subprocess.STDOUT, env=full_env)
+        # `prefix`: e.g. `ip netns exec NS`, to run the daemon on another test host.
+        self.proc = subprocess.Popen(list(prefix) + [DAEMON] + args, stdout=self._log, stderr=subprocess.STDOUT,
+                                     env=full_env)
 
     def log(self):
         with open(self.log_path, "rb") as f:
@@ -172,7 +174,7 @@ def daemon(tmp_path):
     """daemon(domains=[..], extra=[..], wait=True) -> Daemon, stopped after the test."""
     started = []
 
-    def start(domains, extra=(), wait=True, http=True, env=None, socket=None):
+    def start(domains, extra=(), wait=True, http=True, env=None, socket=None, prefix=()):
         sock = socket or os.path.join(tmp_path, f"api-{len(started)}.sock")
         port = free_port() if http else None
         args = []
@@ -186,7 +188,7 @@ def daemon(tmp_path):
         args += ["--config", empty, "--socket", sock, "--http", f"127.0.0.1:{port}" if port else "off", "--no-usb",
                  "--log-level", "debug"]
         args += list(extra)
-        d = Daemon(args, str(tmp_path), sock, port, env)
+        d = Daemon(args, str(tmp_path), sock, port, env, prefix)
         started.append(d)
         if wait:
             d.wait_ready()
@@ -200,8 +202,8 @@ def daemon(tmp_path):
 
 
 class RealddsServer:
-    def __init__(self, domain, devices, name="test-server"):
-        args = [sys.executable, os.path.join(TESTS_DIR, "tools", "realdds_server.py"), "--domain", str(domain),
+    def __init__(self, domain, devices, name="test-server", prefix=()):
+        args = list(prefix) + [sys.executable, os.path.join(TESTS_DIR, "tools", "realdds_server.py"), "--domain", str(domain),
                 "--name", name]
         for info in devices:
             args += ["--device", json.dumps(info)]
@@ -247,8 +249,8 @@ def realdds_server():
     """realdds_server(domain, [device-info...], name=...) -> RealddsServer."""
     servers = []
 
-    def start(domain, devices, name="test-server"):
-        s = RealddsServer(domain, devices, name)
+    def start(domain, devices, name="test-server", prefix=()):
+        s = RealddsServer(domain, devices, name, prefix)
         servers.append(s)
         return s
 
