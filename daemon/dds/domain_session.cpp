@@ -53,6 +53,12 @@ std::vector<std::string> split_addresses(const char* value) {
   return out;
 }
 
+// A writer's GUID shares its participant's prefix; the participant's own entity
+// id is always 000001c1 (RTPS).
+std::string participant_of(const std::string& writer_guid) {
+  return writer_guid.size() == 35 ? writer_guid.substr(0, 27) + "000001c1" : writer_guid;
+}
+
 }  // namespace
 
 std::string guid_to_string(const dds_guid_t& guid) {
@@ -99,7 +105,13 @@ void DomainSession::start() {
   dds_get_guid(participant_, &guid);
   // Read, never taken: Cyclone keeps each live participant's sample here, so a
   // writer's participant name and addresses can be looked up by instance handle.
-  participant_reader_ = dds_create_reader(participant_, DDS_BUILTIN_TOPIC_DCPSPARTICIPANT, nullptr, nullptr);
+  // Its listener also tells which participants are alive, to tell a lost server
+  // (participant gone) from one that only dropped a device (participant alive).
+  dds_listener_t* participant_listener = dds_create_listener(this);
+  dds_lset_data_available(participant_listener, &DomainSession::on_participant_data);
+  participant_reader_ =
+      dds_create_reader(participant_, DDS_BUILTIN_TOPIC_DCPSPARTICIPANT, nullptr, participant_listener);
+  dds_delete_listener(participant_listener);
 
   dds_qos_t* tqos = dds_create_qos();
   dds_qset_reliability(tqos, DDS_RELIABILITY_RELIABLE, DDS_SECS(10));
@@ -133,6 +145,8 @@ void DomainSession::stop() {
   state_ = "stopped";
   participant_guid_.clear();
   writers_.clear();
+  alive_participants_.clear();  // the next participant hears them anew
+  suspects_.clear();
   reconcile_at_.reset();
 }
 
@@ -149,8 +163,9 @@ void DomainSession::rebuild() {
 
 void DomainSession::forget_devices() {
   std::lock_guard lock(mutex_);
-  for (const auto& [id, writer] : device_writer_) table_.remove(id);
-  device_writer_.clear();
+  for (const auto& [id, device] : devices_) table_.remove(id);
+  devices_.clear();
+  devices_per_participant_.clear();
 }
 
 bool DomainSession::reading() const { return reader_ > 0; }
@@ -162,8 +177,9 @@ void DomainSession::create_reader() {
   // realdds' own readers keep the last 10, but the topic has no key, so every
   // writer's samples share one instance: a server announcing many devices at
   // once overflows that before the listener takes them (42 of 100 seen). History
-  // is not matched against writers, so the daemon keeps all; the listener drains it.
-  dds_qset_history(qos, DDS_HISTORY_KEEP_ALL, 0);
+  // is not matched against writers, so the daemon keeps more (reader_history),
+  // but not all: a flooding writer once queued 150,000 samples here.
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, options_.reader_history);
   dds_listener_t* listener = dds_create_listener(this);
   dds_lset_data_available(listener, &DomainSession::on_data_available);
   dds_lset_subscription_matched(listener, &DomainSession::on_subscription_matched);
@@ -195,7 +211,7 @@ void DomainSession::delete_reader() {
 
 void DomainSession::begin_reconcile(Clock::time_point now) {
   std::lock_guard lock(mutex_);
-  if (!device_writer_.empty()) reconcile_at_ = now + options_.reconcile_grace;
+  if (!devices_.empty()) reconcile_at_ = now + options_.reconcile_grace;
 }
 
 DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
@@ -209,8 +225,10 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   }
 
   bool recreate = false;
+  bool refresh = false;
   {
     std::lock_guard lock(mutex_);
+    refresh = lost_servers_due(now);
     if (reconcile_at_ && now >= *reconcile_at_) {
       reconcile_at_.reset();
       drop_devices_without_writer(reader_, nullptr);
@@ -230,6 +248,14 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
       recreate = true;
     }
   }
+  if (refresh) {
+    {
+      std::lock_guard lock(mutex_);
+      ++refreshes_;
+    }
+    rebuild();  // the reader follows after the settle time
+    return options_.settle;
+  }
   if (recreate) {
     delete_reader();
     create_reader();
@@ -245,6 +271,39 @@ void DomainSession::on_data_available(dds_entity_t reader, void* arg) {
     static_cast<DomainSession*>(arg)->take_samples(reader);
   } catch (const std::exception& e) {
     log::error(std::string("device-info listener: ") + e.what());
+  }
+}
+
+void DomainSession::on_participant_data(dds_entity_t reader, void* arg) {
+  try {
+    static_cast<DomainSession*>(arg)->take_participant_changes(reader);
+  } catch (const std::exception& e) {
+    log::error(std::string("participant listener: ") + e.what());
+  }
+}
+
+void DomainSession::take_participant_changes(dds_entity_t reader) {
+  // Only samples not read before: each is a participant appearing or leaving.
+  // They are read, not taken, so writer_for() can still look names up.
+  constexpr std::size_t kBatch = 16;
+  std::array<void*, kBatch> samples{};
+  std::array<dds_sample_info_t, kBatch> infos{};
+  for (;;) {
+    samples.fill(nullptr);
+    const dds_return_t n = dds_read_mask(reader, samples.data(), infos.data(), kBatch, kBatch,
+                                         DDS_NOT_READ_SAMPLE_STATE | DDS_ANY_VIEW_STATE | DDS_ANY_INSTANCE_STATE);
+    if (n <= 0) break;
+    {
+      std::lock_guard lock(mutex_);
+      for (dds_return_t i = 0; i < n; ++i) {
+        const auto* p = static_cast<const dds_builtintopic_participant_t*>(samples[static_cast<std::size_t>(i)]);
+        const std::string guid = guid_to_string(p->key);
+        if (infos[static_cast<std::size_t>(i)].instance_state == DDS_IST_ALIVE) alive_participants_.insert(guid);
+        else alive_participants_.erase(guid);
+      }
+    }
+    dds_return_loan(reader, samples.data(), n);
+    if (static_cast<std::size_t>(n) < kBatch) break;
   }
 }
 
@@ -331,14 +390,41 @@ void DomainSession::handle_sample(dds_entity_t reader, dds_instance_handle_t pub
   if (auto* stop = std::get_if<Stopping>(&parsed)) {
     ++stopping_;
     const std::string id = device_id(options_.domain, stop->topic_root);
-    device_writer_.erase(id);
-    table_.remove(id);
     log::info("domain " + std::to_string(options_.domain) + ": " + stop->topic_root +
               " is stopping (from " + sender + ")");
+    // From a writer that never announced it (or an unknown one): the device
+    // goes all the same, as realdds itself does with any 'stopping'.
+    auto it = devices_.find(id);
+    if (it == devices_.end()) return;
+    const bool announced_by_sender =
+        writer && std::any_of(it->second.announcers.begin(), it->second.announcers.end(),
+                              [&](const auto& a) { return a.first == writer->guid; });
+    if (announced_by_sender) {
+      drop_announcer(id, writer->guid, "its server is stopping");
+    } else {
+      while (!it->second.announcers.empty() &&
+             !drop_announcer(id, it->second.announcers.back().first, "a server says it is stopping")) {
+      }
+    }
     return;
   }
   auto& info = std::get<DeviceInfo>(parsed);
   const std::string id = device_id(options_.domain, info.topic_root);
+  const std::string participant = writer ? writer->participant_guid : std::string();
+  if (!devices_.count(id)) {
+    if (devices_.size() >= options_.max_devices_per_domain) {
+      reject("domain-device-limit", "the domain has " + std::to_string(devices_.size()) + " devices already",
+             sender);
+      return;
+    }
+    if (!participant.empty() && devices_per_participant_[participant] >= options_.max_devices_per_participant) {
+      reject("participant-device-limit",
+             "its participant announces " + std::to_string(devices_per_participant_[participant]) +
+                 " devices already",
+             sender);
+      return;
+    }
+  }
   nlohmann::json doc = std::move(info.fields);
   const auto recovery = doc.find("recovery");
   const bool in_recovery = recovery != doc.end() && recovery->is_boolean() && recovery->get<bool>();
@@ -353,12 +439,51 @@ void DomainSession::handle_sample(dds_entity_t reader, dds_instance_handle_t pub
     server["participant-name"] = s.name;
     server["addresses"] = s.addresses;
     server["writer-guid"] = writer->guid;
-    device_writer_[id] = writer->guid;
+    lost_servers_.erase(writer->participant_guid);  // found again, if it was lost
   }
-  doc["server"] = std::move(server);
+  doc["server"] = server;
+  Announced& device = devices_[id];
+  if (writer) add_announcer(device, writer->guid, std::move(server));
+  device.doc = doc;
   ++accepted_;
   if (auto ev = table_.upsert(id, std::move(doc)); ev && ev->type == EventType::added)
     log::info("domain " + std::to_string(options_.domain) + ": device " + id + " added (from " + sender + ")");
+}
+
+void DomainSession::add_announcer(Announced& device, const std::string& writer_guid, nlohmann::json server) {
+  auto& list = device.announcers;
+  const auto it = std::find_if(list.begin(), list.end(), [&](const auto& a) { return a.first == writer_guid; });
+  if (it != list.end()) list.erase(it);
+  else ++devices_per_participant_[participant_of(writer_guid)];
+  list.emplace_back(writer_guid, std::move(server));  // the latest announcer is shown
+}
+
+bool DomainSession::drop_announcer(const std::string& id, const std::string& writer_guid, const std::string& why) {
+  auto dev = devices_.find(id);
+  if (dev == devices_.end()) return true;
+  auto& list = dev->second.announcers;
+  const auto it = std::find_if(list.begin(), list.end(), [&](const auto& a) { return a.first == writer_guid; });
+  if (it != list.end()) {
+    const std::string participant = participant_of(writer_guid);
+    if (auto count = devices_per_participant_.find(participant);
+        count != devices_per_participant_.end() && --count->second == 0)
+      devices_per_participant_.erase(count);
+    const bool was_shown = std::next(it) == list.end();
+    list.erase(it);
+    if (!list.empty()) {
+      if (was_shown) {  // another server still serves it: show that one
+        dev->second.doc["server"] = list.back().second;
+        log::info("domain " + std::to_string(options_.domain) + ": device " + id + " now served by writer " +
+                  list.back().first + " (" + writer_guid + " left: " + why + ")");
+        table_.upsert(id, dev->second.doc);
+      }
+      return false;
+    }
+  }
+  log::info("domain " + std::to_string(options_.domain) + ": device " + id + " removed: " + why);
+  table_.remove(id);
+  devices_.erase(dev);
+  return true;
 }
 
 void DomainSession::handle_matched(dds_entity_t reader, const dds_subscription_matched_status_t& status) {
@@ -393,23 +518,60 @@ void DomainSession::drop_devices_without_writer(dds_entity_t reader, const std::
       ++it;
     }
   }
-  for (auto it = device_writer_.begin(); it != device_writer_.end();) {
-    const bool doomed = only_writer ? (it->second == *only_writer && !alive.count(it->second))
-                                    : !alive.count(it->second);
-    if (!doomed) {
-      ++it;
-      continue;
+  const auto now = Clock::now();
+  std::vector<std::pair<std::string, std::string>> gone;  // device id, writer GUID
+  for (const auto& [id, device] : devices_)
+    for (const auto& [writer, server] : device.announcers)
+      if (!alive.count(writer) && (!only_writer || writer == *only_writer)) gone.emplace_back(id, writer);
+  for (const auto& [id, writer] : gone) {
+    if (drop_announcer(id, writer, "its writer " + writer + " is gone")) {
+      // A device gone with its writer, not by 'stopping': its server may be lost.
+      const std::string participant = participant_of(writer);
+      if (!lost_servers_.count(participant)) suspects_.emplace(participant, now);
     }
-    log::info("domain " + std::to_string(options_.domain) + ": device " + it->first +
-              " removed: its writer " + it->second + " is gone");
-    table_.remove(it->first);
-    it = device_writer_.erase(it);
   }
   // Forget servers that have no writer left, or a long-lived daemon would keep
   // one entry for every peer that ever came by.
   std::set<std::string> with_writers;
   for (const auto& [h, w] : writers_) with_writers.insert(w.participant_guid);
   std::erase_if(servers_, [&](const auto& entry) { return !with_writers.count(entry.first); });
+}
+
+bool DomainSession::lost_servers_due(Clock::time_point now) {
+  const std::string d = "domain " + std::to_string(options_.domain) + ": ";
+  for (auto it = suspects_.begin(); it != suspects_.end();) {
+    if (now - it->second < options_.lost_check_delay) {
+      ++it;
+      continue;
+    }
+    if (!alive_participants_.count(it->first) && !lost_servers_.count(it->first)) {
+      log::notice(d + "server " + it->first +
+                  " was lost without saying 'stopping' (crashed, or behind a network cut); looking for it again");
+      lost_servers_[it->first] = LostServer{it->second, it->second + options_.lost_refresh_first, 0};
+    }
+    it = suspects_.erase(it);
+  }
+  bool due = false;
+  for (auto it = lost_servers_.begin(); it != lost_servers_.end();) {
+    if (now - it->second.lost_at >= options_.lost_forget_after) {
+      log::info(d + "gave up looking for server " + it->first);
+      it = lost_servers_.erase(it);
+      continue;
+    }
+    due = due || now >= it->second.next_refresh;
+    ++it;
+  }
+  if (!due) return false;
+  // One refresh serves every lost server; each backs off on its own count.
+  for (auto& [guid, lost] : lost_servers_) {
+    ++lost.refreshes;
+    auto wait = options_.lost_refresh_first;
+    for (int i = 0; i < lost.refreshes && wait < options_.lost_refresh_max; ++i) wait *= 4;
+    lost.next_refresh = now + std::min(wait, options_.lost_refresh_max);
+  }
+  log::notice(d + "refreshing the DDS participant to find " + std::to_string(lost_servers_.size()) +
+              " lost server(s) again; devices are kept");
+  return true;
 }
 
 void DomainSession::reject(const std::string& reason, const std::string& detail, const std::string& sender) {
@@ -428,11 +590,13 @@ DomainStatus DomainSession::status() const {
   s.state = state_;
   s.participant_guid = participant_guid_;
   s.error = error_;
-  s.devices = device_writer_.size();
+  s.devices = devices_.size();
   s.accepted = accepted_;
   s.stopping = stopping_;
   s.rejected = rejected_;
   s.rebuilds = rebuilds_;
+  s.refreshes = refreshes_;
+  s.lost_servers = lost_servers_.size();
   s.complete = state_ == "failed" ||
                (first_reader_at_ && Clock::now() - *first_reader_at_ >= options_.initial_grace);
   return s;

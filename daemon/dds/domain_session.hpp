@@ -12,8 +12,11 @@
 #include <chrono>
 #include <map>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace rsd::dds {
 
@@ -36,9 +39,33 @@ struct SessionOptions {
   // on the topic that never writes, so a server counts as silent from two on.
   std::chrono::milliseconds silent_grace{2500};
   int silent_retries = 3;  // per server participant, so a quiet peer can't loop us
+  // Caps: a realdds server announces a handful of devices, and one rogue writer
+  // could announce thousands (150,000 distinct ones in 2 s, measured). Devices
+  // beyond a cap are refused (counted as rejected, logged with a rate limit).
+  std::size_t max_devices_per_participant = 128;
+  std::size_t max_devices_per_domain = 1024;
+  // The reader's history (the topic has no key, so all writers share one
+  // instance): deep enough for a server announcing max_devices_per_participant at
+  // once, bounded so a flood is dropped by Cyclone instead of queued without end.
+  int reader_history = 1024;
   // After the reader or the participant is made anew, a device whose writer has
   // not matched again by then is gone.
   std::chrono::milliseconds reconcile_grace{4000};
+  // A server lost without a 'stopping' (its devices left with their writers, and
+  // its participant is gone too) may be behind a network cut. After a cut longer
+  // than Cyclone's lease of the server but shorter than the server's lease of us,
+  // the same Cyclone participant never sees the server's writers again
+  // (measured: a 5 s cut, still missing 20 s after the heal); a participant made
+  // after the loss finds it like any new peer. So lost_refresh_first after such a
+  // loss the participant is made anew (a refresh), and again, backing off by 4x
+  // up to lost_refresh_max, while the server stays lost; after lost_forget_after
+  // it is given up (a crashed server comes back with another GUID anyway).
+  std::chrono::milliseconds lost_refresh_first{2000};
+  std::chrono::milliseconds lost_refresh_max{std::chrono::minutes(10)};
+  std::chrono::milliseconds lost_forget_after{std::chrono::minutes(30)};
+  // Writers and their participant leave in either order on a lease expiry: a
+  // server is judged lost this long after its devices' writers went.
+  std::chrono::milliseconds lost_check_delay{500};
   // realdds servers broadcast to a reader as soon as it matches, which takes a
   // few ms once discovery has settled: this long after the first reader exists,
   // the domain's first discovery counts as complete (DomainStatus::complete).
@@ -87,9 +114,21 @@ class DomainSession {
     int silent_retries = 0;
   };
 
+  // A server lost without saying 'stopping', looked for (see lost_* options).
+  struct LostServer {
+    Clock::time_point lost_at;
+    Clock::time_point next_refresh;
+    int refreshes = 0;
+  };
+
   static void on_data_available(dds_entity_t reader, void* arg);
+  static void on_participant_data(dds_entity_t reader, void* arg);
   static void on_subscription_matched(dds_entity_t reader, dds_subscription_matched_status_t status,
                                       void* arg);
+  void take_participant_changes(dds_entity_t reader);
+  // Suspects whose participant is gone become lost servers; says whether a
+  // refresh is due. Needs mutex_ held.
+  bool lost_servers_due(Clock::time_point now);
   void take_samples(dds_entity_t reader);
   void handle_sample(dds_entity_t reader, dds_instance_handle_t publication, std::int32_t format,
                      std::span<const std::uint8_t> data);
@@ -122,10 +161,26 @@ class DomainSession {
   std::string participant_guid_;
   std::map<dds_instance_handle_t, Writer> writers_;       // matched to the current reader
   std::map<std::string, Server> servers_;                // by participant GUID
-  std::map<std::string, std::string> device_writer_;     // device id -> writer GUID
+  // A device of this domain in the table, and every writer announcing it: two
+  // servers may serve one topic-root, and the device stays while either does.
+  struct Announced {
+    nlohmann::json doc;  // as last given to the table
+    // writer GUID -> that writer's "server" object; `shown` is the one in `doc`
+    // (the latest announcer still there).
+    std::vector<std::pair<std::string, nlohmann::json>> announcers;
+  };
+  std::map<std::string, Announced> devices_;              // by device id
+  std::map<std::string, std::size_t> devices_per_participant_;  // announced, by participant GUID
+  void add_announcer(Announced& device, const std::string& writer_guid, nlohmann::json server);
+  // Drops one announcer of `id`; the device leaves the table with its last one,
+  // else shows the latest remaining announcer. Returns whether it left.
+  bool drop_announcer(const std::string& id, const std::string& writer_guid, const std::string& why);
   std::optional<Clock::time_point> reconcile_at_;
   std::optional<Clock::time_point> first_reader_at_;  // kept across rebuilds
-  std::uint64_t accepted_ = 0, stopping_ = 0, rebuilds_ = 0;
+  std::set<std::string> alive_participants_;             // GUIDs, as Cyclone sees them now
+  std::map<std::string, Clock::time_point> suspects_;    // participant GUID -> when its writers went
+  std::map<std::string, LostServer> lost_servers_;       // by participant GUID
+  std::uint64_t accepted_ = 0, stopping_ = 0, rebuilds_ = 0, refreshes_ = 0;
   std::map<std::string, std::uint64_t> rejected_;
 };
 
