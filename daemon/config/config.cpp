@@ -63,6 +63,20 @@ std::string read_file(const std::string& path) {
   return text.str();
 }
 
+// A device cap: a whole number from 1 to 1,000,000.
+std::size_t parse_limit(const std::string& text, const std::string& where) {
+  std::size_t used = 0;
+  long long n = 0;
+  try {
+    n = std::stoll(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty() || n < 1 || n > 1000000)
+    throw ConfigError(where + ": must be a whole number from 1 to 1000000, not '" + text + "'");
+  return static_cast<std::size_t>(n);
+}
+
 }  // namespace
 
 std::string default_socket_path() {
@@ -116,10 +130,14 @@ void apply_config_json(const std::string& text, Config& config) {
       check_log_level(config.log_level, at);
     } else if (key == "cyclonedds-config") {
       config.cyclonedds_config = want_string(key, value);
+    } else if (key == "max-devices-per-participant" || key == "max-devices-per-domain") {
+      const std::size_t n = parse_limit(value.is_number_integer() ? std::to_string(value.get<long long>())
+                                                                 : value.dump(), at);
+      (key == "max-devices-per-domain" ? config.max_devices_per_domain : config.max_devices_per_participant) = n;
     } else {
       throw ConfigError(where + ": unknown key \"" + key +
                         "\" (known: domains, socket, http, usb, participant-name, log-level, "
-                        "cyclonedds-config)");
+                        "cyclonedds-config, max-devices-per-participant, max-devices-per-domain)");
     }
   }
 }
@@ -128,7 +146,7 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
   CommandLine cl;
   Config flags_only;  // collects what the flags set, to apply over the file
   bool set_domains = false, set_socket = false, set_http = false, set_usb = false, set_name = false,
-       set_level = false, set_cyclone = false;
+       set_level = false, set_cyclone = false, set_per_participant = false, set_per_domain = false;
   std::string config_file;
   bool explicit_config = false;
   std::vector<int> domains;
@@ -180,6 +198,12 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
     } else if (arg == "--cyclonedds-config") {
       flags_only.cyclonedds_config = next();
       set_cyclone = true;
+    } else if (arg == "--max-devices-per-participant") {
+      flags_only.max_devices_per_participant = parse_limit(next(), arg);
+      set_per_participant = true;
+    } else if (arg == "--max-devices-per-domain") {
+      flags_only.max_devices_per_domain = parse_limit(next(), arg);
+      set_per_domain = true;
     } else {
       throw ConfigError("unknown argument '" + arg + "' (see --help)");
     }
@@ -202,6 +226,8 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
   if (set_name) config.participant_name = flags_only.participant_name;
   if (set_level) config.log_level = flags_only.log_level;
   if (set_cyclone) config.cyclonedds_config = flags_only.cyclonedds_config;
+  if (set_per_participant) config.max_devices_per_participant = flags_only.max_devices_per_participant;
+  if (set_per_domain) config.max_devices_per_domain = flags_only.max_devices_per_domain;
 
   // The same domain twice would be two participants fighting over one table slot.
   std::set<int> unique(config.domains.begin(), config.domains.end());
@@ -232,11 +258,17 @@ Options:
                              Cyclone DDS configuration for every domain (network interface,
                              multicast, unicast peers); default: CYCLONEDDS_URI or Cyclone's own
       --log-level LEVEL      error, warning, notice, info (default) or debug
+      --max-devices-per-participant N
+                             devices one DDS participant may announce (default: 128);
+                             beyond it device-info is refused and counted
+      --max-devices-per-domain N
+                             devices one DDS domain may hold (default: 1024)
   -V, --version              print the version and exit
   -h, --help                 print this help and exit
 
 Config file keys: domains, socket, http, usb, participant-name, log-level,
-cyclonedds-config (same meanings as the flags).
+cyclonedds-config, max-devices-per-participant, max-devices-per-domain (same
+meanings as the flags).
 
 API: GET /v1/devices, /v1/devices/{id}, /v1/events (Server-Sent Events),
 /v1/domains, /healthz, /metrics. For example:
@@ -245,7 +277,8 @@ API: GET /v1/devices, /v1/devices/{id}, /v1/events (Server-Sent Events),
 
 Signals: SIGTERM/SIGINT stop; SIGHUP re-reads the configuration (joins new domains,
 leaves removed ones; an invalid file keeps the running configuration); SIGUSR1
-rebuilds every domain's DDS participant (after a network cut).
+rebuilds every domain's DDS participant (the daemon does this by itself when a
+server is lost without saying 'stopping', as behind a network cut).
 Under systemd: Type=notify (READY, STATUS, WATCHDOG), socket activation by
 rs-discoveryd.socket. See rs-discoveryd(8).
 Exit status: 0 stopped cleanly, 1 runtime failure, 2 bad usage or configuration.

@@ -2,6 +2,7 @@
 // command-line flags (flags win), validated into one plain struct.
 #pragma once
 
+#include <cstddef>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -22,6 +23,9 @@ struct Config {
   std::string participant_name = "rs-discoveryd";
   std::string log_level = "info";
   std::string cyclonedds_config;  // XML fragment or file URI, passed to every domain
+  // Caps against floods: a realdds server announces a handful of devices.
+  std::size_t max_devices_per_participant = 128;
+  std::size_t max_devices_per_domain = 1024;
   std::string config_file;        // where the file part came from ("" : none)
 };
 

@@ -97,3 +97,24 @@ TEST(Config, DefaultSocketPathFollowsRuntimeDirectory) {
   EXPECT_EQ(rsd::default_socket_path(), "/run/rs-discoveryd/api.sock");
   unsetenv("RUNTIME_DIRECTORY");
 }
+
+TEST(Config, DeviceCaps) {
+  const Config defaults;
+  EXPECT_EQ(defaults.max_devices_per_participant, 128u);
+  EXPECT_EQ(defaults.max_devices_per_domain, 1024u);
+  const std::string path = ::testing::TempDir() + "/rsd-config-caps.json";
+  std::ofstream(path) << R"({"max-devices-per-participant": 99})";  // flags win over it
+  auto cl = parse({"--config", path.c_str(), "--max-devices-per-participant", "8", "--max-devices-per-domain=64"});
+  EXPECT_EQ(cl.config.max_devices_per_participant, 8u);
+  EXPECT_EQ(cl.config.max_devices_per_domain, 64u);
+  Config c;
+  rsd::apply_config_json(R"({"max-devices-per-participant": 16, "max-devices-per-domain": 2048})", c);
+  EXPECT_EQ(c.max_devices_per_participant, 16u);
+  EXPECT_EQ(c.max_devices_per_domain, 2048u);
+  for (const char* bad : {R"({"max-devices-per-domain": 0})", R"({"max-devices-per-domain": "many"})",
+                          R"({"max-devices-per-participant": -3})", R"({"max-devices-per-participant": 1.5})"}) {
+    Config x;
+    EXPECT_THROW(rsd::apply_config_json(bad, x), ConfigError) << bad;
+  }
+  EXPECT_THROW(parse({"--max-devices-per-participant", "lots"}), ConfigError);
+}
