@@ -88,6 +88,8 @@ int main(int argc, char** argv) {
   rsd::dds::SessionOptions session_options;
   session_options.participant_name = config.participant_name;
   session_options.cyclone_config = config.cyclonedds_config;
+  session_options.max_devices_per_participant = config.max_devices_per_participant;
+  session_options.max_devices_per_domain = config.max_devices_per_domain;
   rsd::service::DomainSet domains(table, session_options);
   try {
     domains.start(config.domains);
@@ -108,6 +110,11 @@ int main(int argc, char** argv) {
   status.version = RSD_VERSION;
   status.domains = [&domains] { return domains.status(); };
   if (usb) status.usb = [&usb] { return usb->status(); };
+  if (usb)
+    service.usb_watched([&usb] {
+      const auto state = usb->status().state;
+      return state == "hotplug" || state == "polling";
+    });
   rsd::api::ApiServer api(table, status);
   rsd::api::ApiOptions api_options;
   api_options.unix_socket = config.socket_path;
@@ -126,14 +133,16 @@ int main(int argc, char** argv) {
     return 1;
   }
   service.api_listening();
+  const std::string on_unix = api_options.inherited_unix_fd >= 0 ? "the Unix socket from systemd"
+                              : config.socket_path.empty()       ? ""
+                                                                 : "unix:" + config.socket_path;
+  const std::string on_http = api_options.inherited_http_fd >= 0 ? "the HTTP socket from systemd"
+                              : config.http_host.empty()
+                                  ? ""
+                                  : "http://" + config.http_host + ":" + std::to_string(api.http_port());
   rsd::log::notice(std::string("rs-discoveryd ") + RSD_VERSION + " serving" +
-                   (api_options.inherited_unix_fd >= 0 ? " on the Unix socket from systemd"
-                    : config.socket_path.empty()       ? ""
-                                                       : " on unix:" + config.socket_path) +
-                   (api_options.inherited_http_fd >= 0 ? " on the HTTP socket from systemd"
-                    : config.http_host.empty()
-                        ? ""
-                        : " on http://" + config.http_host + ":" + std::to_string(api.http_port())));
+                   (on_unix.empty() ? "" : " on " + on_unix) +
+                   (on_http.empty() ? "" : (on_unix.empty() ? " on " : " and on ") + on_http));
 
   bool running = true;
   while (running) {

@@ -149,7 +149,8 @@ nlohmann::json domain_status_json(const DomainStatus& s) {
           {"accepted", s.accepted},
           {"stopping", s.stopping},
           {"rejected", rejected},
-          {"rebuilds", s.rebuilds}};
+          {"rebuilds", s.rebuilds},
+          {"complete", s.complete}};
 }
 
 std::string prometheus_label_value(std::string_view raw) {
@@ -210,6 +211,12 @@ std::string render_metrics(const MetricsInput& in) {
   w.sample("rsd_table_devices", {}, in.devices_total);
   w.family("rsd_table_generation", "gauge", "Generation of the last table event (the SSE id).");
   w.sample("rsd_table_generation", {}, in.generation);
+
+  // The same condition as "complete" in /v1/devices: every domain's first discovery over.
+  const bool complete =
+      std::all_of(in.domains.begin(), in.domains.end(), [](const DomainStatus& d) { return d.complete; });
+  w.family("rsd_table_complete", "gauge", "1 once every domain has finished its first discovery.");
+  w.sample("rsd_table_complete", {}, complete ? 1 : 0);
 
   w.family("rsd_domain_up", "gauge", "1 when the domain's DDS side is running, by state.");
   for (const auto& d : in.domains)

@@ -69,7 +69,7 @@ std::string Service::current_status(bool ready) {
   std::string why;
   if (!healthy(&why)) note += (note.empty() ? "" : "; ") + why;
   return status_text(ready ? "" : reloading_ ? "reloading" : "starting", device_count_, domains_.ids(),
-                     config_.usb, note);
+                     config_.usb && usb_watched_ && usb_watched_(), note);
 }
 
 Service::Clock::duration Service::tick(Clock::time_point now) {
@@ -140,6 +140,9 @@ void Service::reload() {
   if (next.usb != config_.usb) restart_only.push_back("usb");
   if (next.participant_name != config_.participant_name) restart_only.push_back("participant-name");
   if (next.cyclonedds_config != config_.cyclonedds_config) restart_only.push_back("cyclonedds-config");
+  if (next.max_devices_per_participant != config_.max_devices_per_participant)
+    restart_only.push_back("max-devices-per-participant");
+  if (next.max_devices_per_domain != config_.max_devices_per_domain) restart_only.push_back("max-devices-per-domain");
   if (!restart_only.empty())
     log::warning("reload: " + join(restart_only, ", ") + " changed; that takes effect on restart");
 

@@ -11,13 +11,15 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
 namespace rsd::service {
 
 // STATUS= text, e.g. "3 devices on DDS domains 0,5 and USB", with the phase
-// ("starting: ...") before it when not ready and `note` after it.
+// ("starting: ...") before it when not ready and `note` after it. `usb` is
+// whether local USB is being watched (configured and available).
 std::string status_text(std::string_view phase, std::size_t devices, const std::vector<int>& domains, bool usb,
                         std::string_view note);
 
@@ -30,6 +32,9 @@ class Service {
   Service(const SharedTable& table, DomainSet& domains, Config config, std::vector<std::string> args);
 
   void api_listening();  // the last READY=1 condition besides the domains
+  // Whether the USB source watches USB now (configured, and not unavailable):
+  // STATUS= names USB only then. Unset: USB is not named.
+  void usb_watched(std::function<bool()> watching) { usb_watched_ = std::move(watching); }
   // SIGHUP: re-reads the configuration and applies what can change live (the
   // domains and the log level). An invalid configuration keeps the running one
   // and says why, in the log and in STATUS=.
@@ -52,6 +57,7 @@ class Service {
   Config config_;
   std::vector<std::string> args_;
   Notifier notifier_;
+  std::function<bool()> usb_watched_;
 
   bool api_up_ = false;
   bool ready_sent_ = false;  // false at start and during a reload: READY=1 is owed
