@@ -85,6 +85,16 @@ struct ApiServer::Impl {
     return out;
   }
 
+  // The table is complete once every domain has finished its first discovery:
+  // before that, a device missing from it may simply not have been heard yet, so
+  // the answers say so and clients wait rather than report it gone. USB needs no
+  // term of its own: UsbSource::start() has listed the cameras present before it
+  // returns (hotplug ENUMERATE, or the first rescan), and main.cpp starts it before
+  // the API. No domains at all: nothing to wait for.
+  static bool complete(const std::vector<DomainStatus>& list) {
+    return std::all_of(list.begin(), list.end(), [](const DomainStatus& d) { return d.complete; });
+  }
+
   static std::map<int, std::size_t> count_by_domain(const std::vector<nlohmann::json>& devices) {
     std::map<int, std::size_t> out;
     for (const auto& d : devices)
@@ -191,34 +201,45 @@ void ApiServer::Impl::configure(Listener& svr) {
 void ApiServer::Impl::handle_devices(const httplib::Request& req, httplib::Response& res) {
   DeviceFilter filter;
   if (auto err = parse_device_filter(req.params, filter)) return send_error(res, 400, *err);
+  // Completeness first, then the snapshot: "complete": true then promises that the
+  // list was taken after the first discovery ended, never just before.
+  const bool done = complete(domains());
   auto snap = table.snapshot();
   nlohmann::json devices = nlohmann::json::array();
   for (auto& d : snap.devices)
     if (filter.matches(d)) devices.push_back(std::move(d));
   // The generation lets a client list, then stream with ?since=generation,
   // without missing or repeating an event in between.
-  send_json(res, 200, {{"generation", snap.generation}, {"devices", std::move(devices)}});
+  send_json(res, 200, {{"generation", snap.generation}, {"complete", done}, {"devices", std::move(devices)}});
 }
 
 void ApiServer::Impl::handle_device(const httplib::Request& req, httplib::Response& res) {
   const std::string id = req.matches.size() > 1 ? req.matches[1].str() : "";
+  const bool done = complete(domains());
   if (auto doc = table.find(id)) return send_json(res, 200, *doc);
-  send_error(res, 404, "no device with id '" + id + "'");
+  // A 404 from an incomplete table may turn into a 200 in a moment: say which it
+  // is, so a client can wait instead of reporting the camera absent.
+  send_json(res, 404, {{"error", "no device with id '" + id + "'" +
+                                     (done ? "" : " (the daemon's first discovery is not complete yet)")},
+                       {"status", 404},
+                       {"complete", done}});
 }
 
 void ApiServer::Impl::handle_domains(const httplib::Request& req, httplib::Response& res) {
   if (!req.params.empty()) return send_error(res, 400, "/v1/domains takes no query parameters");
+  const auto all = domains();
   const auto counts = count_by_domain(table.snapshot().devices);
   nlohmann::json list = nlohmann::json::array();
-  for (auto d : domains()) {
+  for (auto d : all) {
     auto it = counts.find(d.domain);
     d.devices = it == counts.end() ? 0 : it->second;  // the table is the truth the other routes show
     list.push_back(domain_status_json(d));
   }
-  send_json(res, 200, {{"domains", std::move(list)}});
+  send_json(res, 200, {{"complete", complete(all)}, {"domains", std::move(list)}});
 }
 
 void ApiServer::Impl::handle_health(const httplib::Request&, httplib::Response& res) {
+  const bool done = complete(domains());
   auto snap = table.snapshot();
   nlohmann::json usb = {{"state", "off"}};
   if (status.usb) {
@@ -231,6 +252,9 @@ void ApiServer::Impl::handle_health(const httplib::Request&, httplib::Response& 
              {"version", status.version},
              {"devices", snap.devices.size()},
              {"generation", snap.generation},
+             // "ok" says the daemon works; this says whether its device count is
+             // final yet (false for the first seconds after a start).
+             {"complete", done},
              {"usb", std::move(usb)}});
 }
 

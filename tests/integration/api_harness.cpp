@@ -6,6 +6,7 @@
 //               [--max-streams N] [--log-capacity N] [--first-generation N]
 // stdout: "ready http_port=N" once serving; stdin lines:
 //   upsert ID {json}   remove ID   domains [DomainStatus json...]   stop
+// (a domain's "complete" is true unless the line says otherwise)
 // Each command is acknowledged with "ok <generation>".
 #include "api/api_server.hpp"
 #include "log/log.hpp"
@@ -83,6 +84,7 @@ int main(int argc, char** argv) {
           s.participant_guid = d.value("participant-guid", "");
           s.accepted = d.value("accepted", 0u);
           s.rejected = d.value("rejected", std::map<std::string, std::uint64_t>{});
+          s.complete = d.value("complete", true);
           next.push_back(s);
         }
         std::lock_guard lock(domains_mutex);

@@ -152,7 +152,8 @@ def test_device_404_and_unknown_paths(harness):
     import json
     h = harness(http=False)
     status, _, body = request(h.socket, "/v1/devices/dds-0-nope")
-    assert status == 404 and json.loads(body) == {"error": "no device with id 'dds-0-nope'", "status": 404}
+    assert status == 404
+    assert json.loads(body) == {"error": "no device with id 'dds-0-nope'", "status": 404, "complete": True}
     validate_response("/v1/devices/{id}", 404, json.loads(body))
     for path in ("/", "/v1", "/v1/devices/", "/v1/devices/a/b", "/v2/devices", "/healthz/x", "/metricsx"):
         status, headers, body = request(h.socket, path)
@@ -231,6 +232,48 @@ def test_healthz_and_domains(harness):
     d3 = body["domains"][1]
     assert d3["devices"] == 1 and d3["accepted"] == 5 and d3["rejected"] == {"not-json": 2}
     assert body["domains"][0]["devices"] == 0
+
+
+def test_answers_say_whether_the_table_is_complete(harness):
+    """Until every domain's first discovery is over, every answer that counts devices says
+    "complete": false (a missing camera may not have been heard yet); then true."""
+    import json
+    h = harness(http=False)
+    h.upsert(*dev(1, domain=3))
+    h.command('domains ' + json.dumps([{"domain": 3, "complete": True}, {"domain": 4, "complete": False}]))
+
+    def answers():
+        listing = get_json(h.socket, "/v1/devices")
+        validate_response("/v1/devices", 200, listing)
+        health = get_json(h.socket, "/healthz")
+        validate_response("/healthz", 200, health)
+        domains = get_json(h.socket, "/v1/domains")
+        validate_response("/v1/domains", 200, domains)
+        status, _, body = request(h.socket, "/v1/devices/dds-4-later")
+        missing = json.loads(body)
+        assert status == 404
+        validate_response("/v1/devices/{id}", 404, missing)
+        return listing, health, domains, missing
+
+    listing, health, domains, missing = answers()
+    assert listing["complete"] is False and [d["id"] for d in listing["devices"]] == [dev(1, domain=3)[0]]
+    assert health["complete"] is False and health["status"] == "ok"  # healthy; the count is not final yet
+    assert domains["complete"] is False
+    assert {d["domain"]: d["complete"] for d in domains["domains"]} == {3: True, 4: False}
+    assert missing["complete"] is False and "not complete" in missing["error"]
+    assert metric(parse_metrics(get_text(h.socket, "/metrics")), "rsd_table_complete") == 0
+
+    h.command('domains ' + json.dumps([{"domain": 3, "complete": True}, {"domain": 4, "complete": True}]))
+    listing, health, domains, missing = answers()
+    assert listing["complete"] is True and health["complete"] is True and domains["complete"] is True
+    assert missing == {"error": "no device with id 'dds-4-later'", "status": 404, "complete": True}
+    assert metric(parse_metrics(get_text(h.socket, "/metrics")), "rsd_table_complete") == 1
+
+
+def get_text(target, path):
+    status, _, body = request(target, path)
+    assert status == 200, (path, status)
+    return body.decode()
 
 
 def test_metrics(harness):

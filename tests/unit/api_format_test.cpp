@@ -123,6 +123,9 @@ TEST(ApiJson, DomainStatus) {
   EXPECT_EQ(j["participant-guid"], "01.02");
   EXPECT_EQ(j["rejected"]["not-json"], 3);
   EXPECT_TRUE(domain_status_json(rsd::DomainStatus{})["rejected"].is_object());
+  EXPECT_EQ(j["complete"], false);  // the first discovery is not over until DDS says so
+  s.complete = true;
+  EXPECT_EQ(domain_status_json(s)["complete"], true);
 }
 
 TEST(ApiMetrics, LabelEscaping) {
@@ -151,8 +154,12 @@ TEST(ApiMetrics, Exposition) {
         "rsd_messages_rejected_total{domain=\"0\",reason=\"bad-cbor\"} 2\n", "rsd_events_sent_total 11\n",
         "rsd_api_requests_total{status=\"404\"} 1\n", "rsd_domain_up{domain=\"9\",state=\"failed\"} 0\n",
         "# TYPE rsd_messages_rejected_total counter\n", "# TYPE rsd_devices gauge\n",
-        "rsd_build_info{version=\"1.2.3\"} 1\n"})
+        "rsd_build_info{version=\"1.2.3\"} 1\n", "rsd_table_complete 0\n"})
     EXPECT_NE(text.find(line), std::string::npos) << line << "\nin:\n" << text;
+  // Complete once every domain is; no domains: nothing to wait for.
+  for (auto& d : in.domains) d.complete = true;
+  EXPECT_NE(render_metrics(in).find("rsd_table_complete 1\n"), std::string::npos);
+  EXPECT_NE(render_metrics(MetricsInput{}).find("rsd_table_complete 1\n"), std::string::npos);
   // Every sample's family is declared before it, once.
   std::set<std::string> declared;
   std::istringstream lines(text);
