@@ -17,10 +17,13 @@ int run(const ParsedArgs& args) {
   if (args.positional.size() != 1) throw UsageError("give exactly one device ID");
   const std::string& key = args.positional[0];
   auto client = make_client(args);
-  auto device = client.find_device(key);
+  auto device = client.find_device(key);  // waits for the complete table, unless told not to
+  bool complete = true;
   if (!device) {
     std::vector<rsdiscovery::Device> hits;
-    for (auto& d : client.list_devices())
+    auto list = client.list();  // find_device() has waited for the complete table already
+    complete = list.complete;
+    for (auto& d : list.devices)
       if (d.serial == key || d.topic_root == key) hits.push_back(std::move(d));
     if (hits.size() > 1) {
       std::string ids;
@@ -32,6 +35,7 @@ int run(const ParsedArgs& args) {
     if (hits.empty()) {
       std::fprintf(stderr, "rs-discover: no device '%s' (ids are listed by 'rs-discover list -q')\n",
                    key.c_str());
+      if (!complete) warn_incomplete();
       return kNotFound;
     }
     device = std::move(hits[0]);
@@ -79,11 +83,15 @@ int run(const ParsedArgs& args) {
 const Command kGetCommand = {
     "get",
     "show one camera",
-    "get [--json] ID",
+    "get [--json] [--no-wait-complete | --complete-timeout S] ID",
     "Show one camera: every field the daemon has for it. ID is the id that 'rs-discover list -q'\n"
-    "prints; a serial number or a topic-root that names one camera only works too.",
+    "prints; a serial number or a topic-root that names one camera only works too.\n"
+    "A camera not (yet) in the table is waited for while the daemon's first discovery runs\n"
+    "(up to 5 s after it starts, --complete-timeout), unless --no-wait-complete is given.",
     {
         {"json", 0, nullptr, "print the device's JSON document"},
+        kNoWaitCompleteOption,
+        kCompleteTimeoutOption,
     },
     run,
 };

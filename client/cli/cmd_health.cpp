@@ -12,11 +12,11 @@ int run(const ParsedArgs& args) {
   if (args.has("json")) {
     std::printf("%s\n", h.json.c_str());
   } else {
-    std::printf("%s: rs-discoveryd %s at %s, %llu device%s\n",
+    std::printf("%s: rs-discoveryd %s at %s, %llu device%s%s\n",
                 paint(h.status, ok ? color::green : color::red).c_str(),
                 h.version.empty() ? "(version unknown)" : h.version.c_str(),
                 client.endpoint().to_string().c_str(), static_cast<unsigned long long>(h.devices),
-                h.devices == 1 ? "" : "s");
+                h.devices == 1 ? "" : "s", h.complete ? "" : " so far (first discovery still running)");
   }
   return ok ? kOk : kNotFound;
 }

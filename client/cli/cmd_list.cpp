@@ -15,6 +15,7 @@ int run(const ParsedArgs& args) {
   auto client = make_client(args);
 
   std::vector<rsdiscovery::Device> devices;
+  bool complete = true;
   if (wait > 0) {
     auto ms = std::chrono::milliseconds(static_cast<long long>(timeout * 1000));
     auto got = client.wait_until(
@@ -27,11 +28,16 @@ int run(const ParsedArgs& args) {
     }
     devices = std::move(*got);
   } else {
-    devices = client.list_devices(filter);
+    auto list = client.list(filter);  // waits for the complete table, unless told not to
+    devices = std::move(list.devices);
+    complete = list.complete;
   }
+  if (!complete) warn_incomplete();
 
   if (args.has("json")) {
-    std::string out = "{\"devices\":[";
+    std::string out = "{\"complete\":";
+    out += complete ? "true" : "false";
+    out += ",\"devices\":[";
     for (std::size_t i = 0; i < devices.size(); ++i) {
       if (i) out += ',';
       out += devices[i].json;
@@ -69,19 +75,25 @@ int run(const ParsedArgs& args) {
 const Command kListCommand = {
     "list",
     "list the cameras the daemon knows now",
-    "list [--json | -q | -w] [--domain N] [--product-line LINE] [--source dds|usb] [--wait N [--timeout S]]",
+    "list [--json | -q | -w] [--domain N] [--product-line LINE] [--source dds|usb] [--wait N [--timeout S]]\n"
+    "       [--no-wait-complete | --complete-timeout S]",
     "List the cameras rs-discoveryd knows now: one line each, with where it is (DDS domain or\n"
     "USB port), its network address and how long it has been seen. With --wait, first wait\n"
-    "until at least N cameras (that match the filters) are present.",
+    "until at least N cameras (that match the filters) are present.\n"
+    "In the first seconds after the daemon starts its table is not complete yet; list waits\n"
+    "for it (up to 5 s, --complete-timeout), unless --no-wait-complete is given. An answer\n"
+    "taken before it is complete comes with a warning on stderr.",
     {
         {"domain", 0, "N", "only devices on DDS domain N"},
         {"product-line", 0, "LINE", "only devices of this product line (D400, D500, ...)"},
         {"source", 0, "SOURCE", "only devices seen this way: dds or usb"},
-        {"json", 0, nullptr, "print JSON as the API gives it: {\"devices\": [...]}"},
+        {"json", 0, nullptr, "print JSON: {\"complete\": true, \"devices\": [...]}, as the API gives it"},
         {"quiet", 'q', nullptr, "print only the device ids, one a line"},
         {"wide", 'w', nullptr, "add the PRODUCT-ID, FW and ID columns"},
         {"wait", 0, "N", "wait until at least N matching devices are present"},
         {"timeout", 0, "S", "give up waiting after S seconds (default 10; exit status 1)"},
+        kNoWaitCompleteOption,
+        kCompleteTimeoutOption,
     },
     run,
 };

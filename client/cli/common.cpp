@@ -139,6 +139,14 @@ void print_help(const Command& c, std::FILE* out) {
 
 rsdiscovery::Client make_client(const ParsedArgs& args) {
   rsdiscovery::ClientOptions options;
+  if (args.has("no-wait-complete") && args.has("complete-timeout"))
+    throw UsageError("--no-wait-complete and --complete-timeout exclude each other");
+  if (args.has("no-wait-complete")) {
+    options.complete_timeout = std::chrono::milliseconds::zero();
+  } else if (args.has("complete-timeout")) {
+    options.complete_timeout =
+        std::chrono::milliseconds(static_cast<long long>(args.get_seconds("complete-timeout", 0) * 1000));
+  }
   return rsdiscovery::Client(args.get("endpoint"), options);
 }
 
@@ -150,6 +158,14 @@ rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args) {
   if (!f.source.empty() && f.source != "dds" && f.source != "usb")
     throw UsageError("--source wants dds or usb, not '" + f.source + "'");
   return f;
+}
+
+void warn_incomplete() {
+  // stderr, and still exit 0: the answer is right about every camera it lists, and
+  // scripts reading stdout keep working; a human learns why one may be missing.
+  std::fputs("rs-discover: warning: rs-discoveryd has not finished its first discovery (it started moments "
+             "ago); cameras may be missing from this answer\n",
+             stderr);
 }
 
 int report(const rsdiscovery::Error& e) {

@@ -35,6 +35,15 @@ struct OptionSpec {
 
 // Options every subcommand takes.
 extern const std::vector<OptionSpec> kCommonOptions;
+// The wait for the daemon's complete table (list and get; make_client() reads them).
+// constexpr, so the commands' option tables, built at static initialisation in
+// other files, never copy them before they exist.
+inline constexpr OptionSpec kNoWaitCompleteOption = {
+    "no-wait-complete", 0, nullptr,
+    "answer at once, even while the daemon's first discovery still runs (cameras may be missing)"};
+inline constexpr OptionSpec kCompleteTimeoutOption = {
+    "complete-timeout", 0, "S",
+    "wait at most S seconds (default 5) for the daemon's first discovery to end"};
 
 struct ParsedArgs {
   std::map<std::string, std::string> values;  // flags map to "1"
@@ -67,6 +76,9 @@ Output& output();
 
 rsdiscovery::Client make_client(const ParsedArgs& args);
 rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args);
+
+// The warning for an answer taken before the daemon's first discovery ended.
+void warn_incomplete();
 
 // Prints "rs-discover: message" for an error and returns the exit code it maps to.
 int report(const rsdiscovery::Error& error);

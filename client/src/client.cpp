@@ -1,11 +1,26 @@
 // The client: one kept-alive connection for requests, one thread per watch.
 #include "watch_core.hpp"
 
+#include <algorithm>
 #include <mutex>
+#include <thread>
 
 namespace rsdiscovery {
 
 using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+// How often an answer from an incomplete table is asked again. The first discovery
+// ends a few seconds after the daemon starts, at no moment a client can know, and a
+// request on the kept-alive connection costs well under a millisecond.
+constexpr std::chrono::milliseconds kCompletePoll{50};
+
+void pause_until(Clock::time_point deadline) {
+  auto left = deadline - Clock::now();
+  if (left > Clock::duration::zero()) std::this_thread::sleep_for(std::min<Clock::duration>(left, kCompletePoll));
+}
+}  // namespace
 
 struct Client::Impl {
   Impl(Endpoint ep, ClientOptions opts) : endpoint(std::move(ep)), options(opts), transport(endpoint, opts) {}
@@ -18,6 +33,22 @@ struct Client::Impl {
     std::lock_guard lock(mutex);
     return transport.get_json(path);
   }
+
+  // The moment until which an answer from an incomplete table is asked again.
+  Clock::time_point complete_deadline() const {
+    return Clock::now() + std::max(options.complete_timeout, std::chrono::milliseconds::zero());
+  }
+
+  // GET `path` again until the answer says the table is complete, or `deadline`.
+  json get_complete_json(const std::string& path, Clock::time_point deadline) {
+    for (;;) {
+      json reply = get_json(path);
+      if (detail::reports_complete(reply) || Clock::now() >= deadline) return reply;
+      pause_until(deadline);
+    }
+  }
+
+  DeviceList list(const DeviceFilter& filter, Clock::time_point deadline);
 };
 
 Client::Client() : Client(Endpoint::from_environment()) {}
@@ -38,25 +69,37 @@ namespace {
 }
 }  // namespace
 
-std::vector<Device> Client::list_devices(const DeviceFilter& filter) {
-  json reply = impl_->get_json(detail::devices_path(filter));
+DeviceList Client::Impl::list(const DeviceFilter& filter, Clock::time_point deadline) {
+  json reply = get_complete_json(detail::devices_path(filter), deadline);
   auto list = reply.find("devices");
-  if (list == reply.end() || !list->is_array()) malformed(impl_->endpoint, "no \"devices\" array");
-  std::vector<Device> out;
-  out.reserve(list->size());
-  for (const auto& d : *list) out.push_back(detail::device_from_json(d));
+  if (list == reply.end() || !list->is_array()) malformed(endpoint, "no \"devices\" array");
+  DeviceList out;
+  out.devices.reserve(list->size());
+  for (const auto& d : *list) out.devices.push_back(detail::device_from_json(d));
+  if (auto g = reply.find("generation"); g != reply.end() && g->is_number_unsigned())
+    out.generation = g->get<std::uint64_t>();
+  out.complete = detail::reports_complete(reply);
   return out;
 }
 
+DeviceList Client::list(const DeviceFilter& filter) { return impl_->list(filter, impl_->complete_deadline()); }
+
+std::vector<Device> Client::list_devices(const DeviceFilter& filter) { return list(filter).devices; }
+
 std::optional<Device> Client::find_device(const std::string& id) {
   std::string path = "/v1/devices/" + detail::percent_encode(id);
+  const auto deadline = impl_->complete_deadline();
   detail::Reply reply;
-  {
-    std::lock_guard lock(impl_->mutex);
-    reply = impl_->transport.get(path);
-  }
-  if (reply.status == 404) {
-    return std::nullopt;
+  for (;;) {
+    {
+      std::lock_guard lock(impl_->mutex);
+      reply = impl_->transport.get(path);
+    }
+    if (reply.status != 404) break;
+    // Absent from an incomplete table: it may be a camera not heard from yet.
+    auto body = json::parse(reply.body, nullptr, false);
+    if (!body.is_object() || detail::reports_complete(body) || Clock::now() >= deadline) return std::nullopt;
+    pause_until(deadline);
   }
   if (reply.status != 200) {
     std::lock_guard lock(impl_->mutex);
@@ -116,10 +159,17 @@ std::optional<std::vector<Device>> Client::wait_until(
     const DeviceFilter& filter, const std::function<bool(const std::vector<Device>&)>& predicate,
     std::chrono::milliseconds timeout) {
   auto deadline = std::chrono::steady_clock::now() + timeout;
+  // The predicate is only asked about the complete table (a set condition such as
+  // "no camera" or "at least two" would hold by mistake on a partial one), as far
+  // as both waits allow.
+  const auto complete_by = std::min(deadline, impl_->complete_deadline());
   // Fast path: it may hold already, and one request is much cheaper than a watch.
-  if (auto now = list_devices(filter); predicate(now)) return now;
+  if (auto now = impl_->list(filter, complete_by).devices; predicate(now)) return now;
   WatchOptions options;
   options.filter = filter;
+  options.complete_timeout =
+      std::max(std::chrono::duration_cast<std::chrono::milliseconds>(complete_by - Clock::now()),
+               std::chrono::milliseconds::zero());
   Watch w = watch(options);
   for (;;) {
     auto devices = w.devices();

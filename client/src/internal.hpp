@@ -26,8 +26,14 @@ DomainStatus domain_from_json(const nlohmann::json& doc);
 Health health_from_json(const nlohmann::json& doc);
 
 // The same device document, apart from fields that move without being news
-// ("last-seen"): what the watch compares to tell a real change.
+// ("last-seen"; "first-seen", which a restarted daemon sets anew for a camera that
+// never went away): what the watch compares to tell a real change.
 bool same_device(const nlohmann::json& a, const nlohmann::json& b);
+
+// Whether a /v1/devices, /healthz, /v1/domains or 404 document says the daemon's
+// first discovery is over. A document without "complete" (a daemon older than the
+// field) counts as complete: there is nothing to wait for.
+bool reports_complete(const nlohmann::json& doc);
 
 // "/v1/devices?domain=7&product-line=D400" (values percent-encoded).
 std::string devices_path(const DeviceFilter& filter);

@@ -130,6 +130,7 @@ DomainStatus domain_from_json(const json& doc) {
   if (auto r = doc.find("rejected"); r != doc.end() && r->is_object())
     for (const auto& [reason, n] : r->items())
       if (n.is_number_integer() || n.is_number_unsigned()) s.rejected[reason] = count(*r, reason.c_str());
+  s.complete = reports_complete(doc);
   s.json = doc.dump();
   return s;
 }
@@ -140,6 +141,7 @@ Health health_from_json(const json& doc) {
   h.status = text(doc, "status");
   h.version = text(doc, "version");
   h.devices = count(doc, "devices");
+  h.complete = reports_complete(doc);
   h.json = doc.dump();
   return h;
 }
@@ -148,11 +150,16 @@ bool same_device(const json& a, const json& b) {
   if (!a.is_object() || !b.is_object()) return a == b;
   if (a.size() != b.size()) return false;
   for (auto it = a.begin(); it != a.end(); ++it) {
-    if (it.key() == "last-seen") continue;
+    if (it.key() == "last-seen" || it.key() == "first-seen") continue;
     auto other = b.find(it.key());
     if (other == b.end() || *other != it.value()) return false;
   }
   return true;
+}
+
+bool reports_complete(const json& doc) {
+  auto it = doc.find("complete");
+  return it == doc.end() || !it->is_boolean() || it->get<bool>();
 }
 
 std::string percent_encode(std::string_view text) {

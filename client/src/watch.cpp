@@ -6,6 +6,7 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cstdio>
 
@@ -278,6 +279,9 @@ void WatchCore::handle(const detail::SseMessage& m) {
                                                 "' without a device document");
   if (id) {
     std::lock_guard lock(mutex_);
+    // Already in the view: the list that followed a resync was taken after it.
+    // Applying it again could only add back a camera that has since gone.
+    if (*id <= listed_at_) return;
     last_id_ = id;
   }
   apply(type, std::move(doc), id.value_or(0), false);
@@ -312,8 +316,25 @@ void WatchCore::apply(Event::Type type, json doc, std::uint64_t id, bool synthet
   sink_(std::move(out));
 }
 
+json WatchCore::list_complete() {
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::max(options_.complete_timeout, std::chrono::milliseconds::zero());
+  for (;;) {
+    json reply = lister_.get_json(detail::devices_path(options_.filter));
+    // A daemon that has just (re)started answers at once, from a table that lacks
+    // the cameras it has not heard from yet: compared with the view, that list would
+    // report them removed, then added again a moment later. Only a complete list
+    // tells real differences.
+    if (detail::reports_complete(reply) || std::chrono::steady_clock::now() >= deadline) return reply;
+    std::unique_lock lock(mutex_);
+    const auto left = deadline - std::chrono::steady_clock::now();
+    cv_.wait_for(lock, std::min<std::chrono::steady_clock::duration>(left, 50ms), [this] { return stop_.load(); });
+    if (stop_) throw Error(ErrorCode::cancelled, "the watch was stopped");
+  }
+}
+
 std::optional<std::uint64_t> WatchCore::relist(bool emit) {
-  json reply = lister_.get_json(detail::devices_path(options_.filter));
+  json reply = list_complete();
   std::optional<std::uint64_t> generation;
   if (auto g = reply.find("generation"); g != reply.end() && g->is_number_unsigned())
     generation = g->get<std::uint64_t>();
@@ -332,7 +353,10 @@ std::optional<std::uint64_t> WatchCore::relist(bool emit) {
   std::vector<json> gone;
   {
     std::lock_guard lock(mutex_);
-    if (generation) last_id_ = std::max(last_id_.value_or(0), *generation);
+    if (generation) {
+      last_id_ = std::max(last_id_.value_or(0), *generation);
+      listed_at_ = *generation;
+    }
     at = last_id_.value_or(0);
     if (!emit) {
       known_ = std::move(fresh);

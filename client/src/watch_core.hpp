@@ -44,6 +44,9 @@ class WatchCore {
   // Lists the devices into the view (reporting the difference when `emit`); returns
   // the generation the list was taken at, when the daemon tells it.
   std::optional<std::uint64_t> relist(bool emit);
+  // GET /v1/devices again until the daemon says its table is complete, or until
+  // options_.complete_timeout; throws Error(cancelled) when the watch is stopped.
+  nlohmann::json list_complete();
   void status(bool connected, const std::string& message);
   void first_result(std::exception_ptr error);
 
@@ -59,6 +62,9 @@ class WatchCore {
   std::map<std::string, nlohmann::json> known_;  // the view: id -> device document
   bool view_complete_ = false;  // known_ came from a list (else from events only)
   std::optional<std::uint64_t> last_id_;
+  // The generation of the last list: stream events up to it are already in the
+  // view (they arrived while a re-list waited for the complete table).
+  std::uint64_t listed_at_ = 0;
   std::deque<Event> queue_;  // pull mode
   std::atomic<bool> stop_{false};
   bool first_done_ = false;

@@ -191,12 +191,23 @@ TEST(Device, RejectsWhatIsNotADevice) {
   }
 }
 
-TEST(Device, SameDeviceIgnoresLastSeenOnly) {
-  auto a = json::parse(R"({"id":"x","name":"n","last-seen":"1"})");
-  auto b = json::parse(R"({"id":"x","name":"n","last-seen":"2"})");
-  auto c = json::parse(R"({"id":"x","name":"m","last-seen":"2"})");
+TEST(Device, SameDeviceIgnoresOnlyTheTimesSeen) {
+  auto a = json::parse(R"({"id":"x","name":"n","last-seen":"1","first-seen":"1"})");
+  auto b = json::parse(R"({"id":"x","name":"n","last-seen":"2","first-seen":"1"})");
+  auto c = json::parse(R"({"id":"x","name":"m","last-seen":"2","first-seen":"1"})");
+  // A restarted daemon sets first-seen anew for a camera that never went away.
+  auto d = json::parse(R"({"id":"x","name":"n","last-seen":"1","first-seen":"9"})");
   EXPECT_TRUE(detail::same_device(a, b));
   EXPECT_FALSE(detail::same_device(a, c));
+  EXPECT_TRUE(detail::same_device(a, d));
+}
+
+TEST(Device, CompleteUnlessTheDocumentSaysOtherwise) {
+  EXPECT_TRUE(detail::reports_complete(json::parse(R"({"devices":[]})")));  // an older daemon
+  EXPECT_TRUE(detail::reports_complete(json::parse(R"({"complete":true})")));
+  EXPECT_FALSE(detail::reports_complete(json::parse(R"({"complete":false})")));
+  EXPECT_FALSE(detail::health_from_json(json::parse(R"({"status":"ok","complete":false})")).complete);
+  EXPECT_FALSE(detail::domain_from_json(json::parse(R"({"domain":1,"complete":false})")).complete);
 }
 
 TEST(Filter, BuildsTheQueryWithEncoding) {
@@ -226,11 +237,20 @@ class FakeDaemon {
       ++lists_;
       last_list_query_ = req.params.size();
       res.status = list_status_;
+      if (lists_until_later_ > 0 && --lists_until_later_ == 0) list_body_ = list_later_body_;
       res.set_content(list_body_, "application/json");
     });
-    server_.Get(R"(/v1/devices/(.+))", [](const httplib::Request& req, httplib::Response& res) {
+    server_.Get(R"(/v1/devices/(.+))", [this](const httplib::Request& req, httplib::Response& res) {
+      std::lock_guard lock(m_);
       if (req.matches[1] == "known") {
         res.set_content(R"({"id":"known","name":"N"})", "application/json");
+      } else if (req.matches[1] == "later" && gets_until_later_ > 0) {
+        // A camera the daemon has not heard from yet: its first discovery still runs.
+        --gets_until_later_;
+        res.status = 404;
+        res.set_content(R"({"error":"no such device","status":404,"complete":false})", "application/json");
+      } else if (req.matches[1] == "later") {
+        res.set_content(R"({"id":"later","name":"L"})", "application/json");
       } else {
         res.status = 404;
         res.set_content(R"({"error":"no such device","status":404})", "application/json");
@@ -272,6 +292,25 @@ class FakeDaemon {
     std::lock_guard lock(m_);
     list_status_ = status;
     list_body_ = std::move(body);
+    lists_until_later_ = 0;
+  }
+  // `body` answers the next `after` lists, `later` every one after them (a daemon
+  // whose first discovery ends meanwhile).
+  void set_list_then(std::string body, int after, std::string later) {
+    std::lock_guard lock(m_);
+    list_status_ = 200;
+    list_body_ = std::move(body);
+    list_later_body_ = std::move(later);
+    lists_until_later_ = after + 1;
+  }
+  int lists() {
+    std::lock_guard lock(m_);
+    return lists_;
+  }
+  // GET /v1/devices/later: 404 with "complete": false `n` times, then the device.
+  void set_later_after(int n) {
+    std::lock_guard lock(m_);
+    gets_until_later_ = n;
   }
   void send(const std::string& event, std::uint64_t id, const std::string& data) {
     {
@@ -305,6 +344,9 @@ class FakeDaemon {
   int list_status_ = 200;
   std::string list_body_ = R"({"generation":10,"devices":[]})";
   int lists_ = 0;
+  int lists_until_later_ = 0;
+  std::string list_later_body_;
+  int gets_until_later_ = 0;
   std::size_t last_list_query_ = 0;
   std::deque<std::string> events_;
   std::vector<std::string> last_event_ids_;
@@ -336,6 +378,62 @@ TEST(Client, ListsAndGets) {
   EXPECT_FALSE(c.find_device("unknown"));
   EXPECT_EQ(code_of([&] { c.get_device("unknown"); }), ErrorCode::not_found);
   EXPECT_EQ(c.health().version, "9.9.9");
+}
+
+TEST(Client, ListWaitsForTheCompleteTable) {
+  FakeDaemon fake;
+  const std::string partial = R"({"generation":3,"complete":false,"devices":[]})";
+  const std::string whole = R"({"generation":5,"complete":true,"devices":[)" + dev("a") + "]}";
+  fake.set_list_then(partial, 3, whole);
+  Client c(fake.endpoint());
+  auto l = c.list();
+  EXPECT_TRUE(l.complete);
+  EXPECT_EQ(l.generation, 5u);
+  ASSERT_EQ(l.devices.size(), 1u);
+  EXPECT_EQ(l.devices[0].id, "a");
+  EXPECT_EQ(fake.lists(), 4);  // asked again until complete
+
+  // Told not to wait: the partial answer, said to be partial.
+  fake.set_list_then(partial, 3, whole);
+  ClientOptions now;
+  now.complete_timeout = 0ms;
+  l = Client(fake.endpoint(), now).list();
+  EXPECT_FALSE(l.complete);
+  EXPECT_TRUE(l.devices.empty());
+
+  // The wait is bounded: a table that never completes is answered from after the bound.
+  fake.set_list(200, partial);
+  ClientOptions brief;
+  brief.complete_timeout = 200ms;
+  const auto t0 = std::chrono::steady_clock::now();
+  l = Client(fake.endpoint(), brief).list();
+  const auto took = std::chrono::steady_clock::now() - t0;
+  EXPECT_FALSE(l.complete);
+  EXPECT_GE(took, 200ms);
+  EXPECT_LT(took, 2s);
+
+  // A daemon older than the field has nothing to wait for.
+  fake.set_list(200, R"({"generation":7,"devices":[]})");
+  const int before = fake.lists();
+  EXPECT_TRUE(c.list().complete);
+  EXPECT_EQ(fake.lists(), before + 1);
+}
+
+TEST(Client, FindWaitsForACameraWhileTheTableIsIncomplete) {
+  FakeDaemon fake;
+  fake.set_later_after(3);
+  Client c(fake.endpoint());
+  auto d = c.find_device("later");
+  ASSERT_TRUE(d);
+  EXPECT_EQ(d->name, "L");
+  fake.set_later_after(3);
+  ClientOptions now;
+  now.complete_timeout = 0ms;
+  EXPECT_FALSE(Client(fake.endpoint(), now).find_device("later"));
+  // A 404 from a complete table (or one that does not say) is final at once.
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(code_of([&] { c.get_device("unknown"); }), ErrorCode::not_found);
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 1s);
 }
 
 TEST(Client, MalformedRepliesAreNamed) {
@@ -464,6 +562,60 @@ TEST(Watch, ResumesWithLastEventIdAndRelistsOnResync) {
   EXPECT_EQ(got["d"], Event::Type::added);
   EXPECT_FALSE(w.next(100ms));  // c was known and unchanged
   EXPECT_EQ(w.last_event_id(), 1000u);
+}
+
+TEST(Watch, AResyncIsComparedWithTheCompleteListOnly) {
+  FakeDaemon fake;
+  fake.set_list(200, R"({"generation":10,"complete":true,"devices":[)" + dev("a", R"(,"first-seen":"1")") + "," +
+                         dev("b") + "]}");
+  Client c(fake.endpoint());
+  Watch w = c.watch();
+  ASSERT_EQ(fake.wait_stream(1), "10");
+  // A restarted daemon: its first answers lack every camera, then it has heard them
+  // all again (a with a new first-seen, b changed, c new).
+  fake.set_list_then(R"({"generation":1000,"complete":false,"devices":[]})", 3,
+                     R"({"generation":1003,"complete":true,"devices":[)" + dev("a", R"(,"first-seen":"2")") + "," +
+                         dev("b", R"(,"serial":"2")") + "," + dev("c") + "]}");
+  fake.send("resync", 999, R"({"generation":999})");
+  // What the stream carried while the list was awaited is in that list already; x
+  // came and went before it.
+  fake.send("added", 1001, dev("a", R"(,"first-seen":"2")"));
+  fake.send("added", 1002, dev("x"));
+  fake.send("removed", 1003, dev("x"));
+  std::map<std::string, Event::Type> got;
+  for (int i = 0; i < 2; ++i) {
+    auto e = next_event(w);
+    ASSERT_TRUE(e) << i;
+    EXPECT_TRUE(e->synthetic);
+    EXPECT_EQ(e->id, 1003u);
+    got[e->device.id] = e->type;
+  }
+  EXPECT_EQ(got, (std::map<std::string, Event::Type>{{"b", Event::Type::changed}, {"c", Event::Type::added}}));
+  EXPECT_GE(fake.lists(), 5);  // the first list, then the partial ones and the complete one
+  fake.send("added", 1004, dev("d"));
+  auto e = next_event(w);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->device.id, "d");
+  EXPECT_FALSE(e->synthetic);
+  EXPECT_FALSE(w.next(100ms));  // a was there before and after: nothing to tell
+  EXPECT_EQ(w.devices().size(), 4u);
+}
+
+TEST(Watch, StopsPromptlyWhileWaitingForTheCompleteTable) {
+  FakeDaemon fake;
+  fake.set_list(200, R"({"generation":10,"complete":true,"devices":[]})");
+  Client c(fake.endpoint());
+  Watch w = c.watch();
+  ASSERT_EQ(fake.wait_stream(1), "10");
+  fake.set_list(200, R"({"generation":11,"complete":false,"devices":[]})");  // never completes
+  const int before = fake.lists();
+  fake.send("resync", 11, R"({"generation":11})");
+  for (int i = 0; i < 500 && fake.lists() < before + 2; ++i) std::this_thread::sleep_for(10ms);
+  ASSERT_GE(fake.lists(), before + 2);  // it is waiting
+  const auto t0 = std::chrono::steady_clock::now();
+  w.stop();
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 1s);
+  EXPECT_FALSE(w.next(10ms));
 }
 
 TEST(Watch, FailsAtOnceWhenTheDaemonIsAbsent) {

@@ -141,14 +141,29 @@ struct DomainStatus {
   std::uint64_t devices = 0;
   std::uint64_t accepted = 0;
   std::map<std::string, std::uint64_t> rejected;  // reason -> count
-  std::string json;                               // the whole entry
+  // The domain's first discovery is over (false for about the first 3 s after the
+  // daemon joins it): until then its devices may be missing from the table.
+  bool complete = true;
+  std::string json;  // the whole entry
 };
 
 struct Health {
   std::string status;  // "ok" when healthy
   std::string version;
   std::uint64_t devices = 0;
+  // Every domain has finished its first discovery, so `devices` is no longer
+  // short of cameras that are there (false in the seconds after the daemon starts).
+  bool complete = true;
   std::string json;
+};
+
+// One answer of GET /v1/devices.
+struct DeviceList {
+  std::vector<Device> devices;
+  std::uint64_t generation = 0;  // the table's generation the list was taken at
+  // False when the daemon had not finished its first discovery and the wait for it
+  // (ClientOptions::complete_timeout) ran out: cameras that are there may be missing.
+  bool complete = true;
 };
 
 // Filters of GET /v1/devices. Empty members do not filter.
@@ -187,6 +202,12 @@ struct WatchOptions {
   // A stream silent for this long is taken as dead and reconnected (the daemon
   // sends keep-alive comments well within it).
   std::chrono::milliseconds idle_timeout{60000};
+  // Every list the watch takes (at its start, and after a daemon restart) first waits
+  // this long at most for the daemon's first discovery to be over. So a restarted
+  // daemon's list is compared with the view only once it is whole, and a camera that
+  // was there before and after the restart is not reported removed and added again.
+  // 0: take the list as it is (cameras not heard again yet then show up as removed).
+  std::chrono::milliseconds complete_timeout{10000};
 };
 
 // Connection state changes of a watch, for logging; never required.
@@ -281,6 +302,12 @@ class RSDISCOVERY_API Subscription {
 struct ClientOptions {
   std::chrono::milliseconds connect_timeout{2000};
   std::chrono::milliseconds request_timeout{10000};
+  // list(), list_devices(), get_device(), find_device(), wait_for() and wait_until()
+  // first wait this long at most for the daemon to finish its first discovery (it
+  // takes a few seconds after the daemon starts), so that a camera that is there is
+  // never reported missing just because the daemon has not heard from it yet.
+  // 0: answer at once from whatever the table holds.
+  std::chrono::milliseconds complete_timeout{5000};
 };
 
 class RSDISCOVERY_API Client {
@@ -294,7 +321,10 @@ class RSDISCOVERY_API Client {
 
   const Endpoint& endpoint() const;
 
-  std::vector<Device> list_devices(const DeviceFilter& filter = {});
+  // The devices, with the generation and whether the table was complete (see
+  // ClientOptions::complete_timeout for the wait that comes first).
+  DeviceList list(const DeviceFilter& filter = {});
+  std::vector<Device> list_devices(const DeviceFilter& filter = {});  // list(filter).devices
   Device get_device(const std::string& id);  // throws Error(not_found)
   std::optional<Device> find_device(const std::string& id);  // nothing when absent
   std::vector<DomainStatus> domains();
@@ -302,7 +332,8 @@ class RSDISCOVERY_API Client {
   std::string metrics();  // Prometheus text
 
   // Waits until a device satisfying `predicate` is present (it may be already) and
-  // returns it; nothing when `timeout` passes first.
+  // returns it; nothing when `timeout` passes first. Like list(), it looks at the
+  // complete table (bounded by ClientOptions::complete_timeout and by `timeout`).
   std::optional<Device> wait_for(const std::function<bool(const Device&)>& predicate,
                                  std::chrono::milliseconds timeout);
   // Waits until the devices matching `filter` satisfy `predicate` as a set; returns
