@@ -179,9 +179,28 @@ def _matches(d: Device, domain: Optional[int], product_line: Optional[str], sour
     return True
 
 
+_NOT_NEWS = ("last-seen", "first-seen")
+
+
 def _same(a: Device, b: Device) -> bool:
-    """Equal apart from last-seen, which moves without being news."""
-    return {k: v for k, v in a.items() if k != "last-seen"} == {k: v for k, v in b.items() if k != "last-seen"}
+    """Equal apart from last-seen, which moves without being news, and first-seen, which a
+    restarted daemon sets anew for a camera that never went away."""
+    return {k: v for k, v in a.items() if k not in _NOT_NEWS} == {k: v for k, v in b.items() if k not in _NOT_NEWS}
+
+
+def _complete(doc: Dict[str, Any]) -> bool:
+    """Whether an answer says the daemon's first discovery is over. One without the field
+    (a daemon older than it) has nothing to wait for."""
+    return doc.get("complete") is not False
+
+
+# How often an answer from an incomplete table is asked again, in seconds. The first
+# discovery ends a few seconds after the daemon starts, at no moment a client can know.
+_COMPLETE_POLL = 0.05
+
+
+class _Closed(RSDiscoveryError):
+    """The watch was closed while it waited; never reaches the caller."""
 
 
 # ---- events -----------------------------------------------------------------------------
@@ -251,15 +270,20 @@ class Watcher:
     It lists the devices, then streams from the generation of that list, so nothing
     falls in between; after a disconnect it resumes with ``Last-Event-ID``, and when the
     daemon cannot fill the gap (it restarted) it re-lists and reports the difference as
-    synthetic events. Iterate it, or call :meth:`next` with a timeout; :meth:`close` ends
+    synthetic events. Every list first waits (up to ``complete_timeout`` seconds) for the
+    daemon's first discovery to be over, so a camera there before and after a restart
+    is not reported removed and added again. Iterate it, or call :meth:`next` with a timeout; :meth:`close` ends
     it (also as a context manager).
     """
 
     def __init__(self, client: "Client", initial: bool = False, last_event_id: Optional[int] = None,
                  reconnect: bool = True, idle_timeout: float = 60.0, max_reconnect_delay: float = 2.0,
                  domain: Optional[int] = None, product_line: Optional[str] = None,
-                 source: Optional[str] = None) -> None:
+                 source: Optional[str] = None, complete_timeout: float = 10.0) -> None:
         self._client = client
+        self._complete_timeout = complete_timeout
+        # The generation of the last list: stream events up to it are in the view already.
+        self._listed_at = 0
         self._filters = (domain, product_line, source)
         self._initial = initial
         self._reconnect = reconnect
@@ -356,8 +380,22 @@ class Watcher:
         if _matches(doc, *self._filters):
             self._queue.put(Event(kind, ident, doc, synthetic))
 
+    def _list_complete(self) -> Dict[str, Any]:
+        # A daemon that has just (re)started answers at once, from a table lacking the
+        # cameras it has not heard from yet: compared with the view, that list would
+        # report them removed, then added again a moment later. Only a complete list
+        # tells real differences; the wait is bounded by complete_timeout.
+        deadline = time.monotonic() + max(self._complete_timeout or 0, 0)
+        while True:
+            reply = self._client._get_json("/v1/devices" + _query(*self._filters))
+            left = deadline - time.monotonic()
+            if _complete(reply) or left <= 0:
+                return reply
+            if self._closed.wait(min(left, _COMPLETE_POLL)):
+                raise _Closed("the watch was closed")
+
     def _relist(self, emit: bool) -> Optional[int]:
-        reply = self._client._get_json("/v1/devices" + _query(*self._filters))
+        reply = self._list_complete()
         devices = reply.get("devices")
         if not isinstance(devices, list) or not all(isinstance(d, dict) and isinstance(d.get("id"), str)
                                                     for d in devices):
@@ -369,6 +407,7 @@ class Watcher:
         with self._lock:
             if generation is not None:
                 self._last_id = max(self._last_id or 0, generation)
+                self._listed_at = generation
             at = self._last_id or 0
             if not emit:
                 self._known = fresh
@@ -402,6 +441,8 @@ class Watcher:
             raise MalformedReply(f"malformed event from rs-discoveryd at {self._client.endpoint}: "
                                  f"{kind!r} without a device document")
         if num is not None:
+            if num <= self._listed_at:
+                return  # in the view already: the list after a resync was taken after it
             self._last_id = num
         self._emit(kind, doc, num or 0, False)
 
@@ -483,11 +524,31 @@ class Client:
     ``endpoint``: ``unix:/path``, ``http://host:port`` or an :class:`Endpoint`; by default
     ``$RS_DISCOVERY_ENDPOINT``, else the daemon's default socket. ``timeout``: seconds for
     one request.
+
+    ``complete_timeout``: :meth:`list_devices`, :meth:`get_device` and :meth:`wait_for`
+    first wait up to this many seconds for the daemon to finish its first discovery (it
+    takes a few seconds after the daemon starts), so that a camera that is there is never
+    reported missing just because the daemon has not heard from it yet. ``0``: answer at
+    once from whatever the table holds.
     """
 
-    def __init__(self, endpoint: "Endpoint | str | None" = None, timeout: float = 10.0) -> None:
+    def __init__(self, endpoint: "Endpoint | str | None" = None, timeout: float = 10.0,
+                 complete_timeout: float = 5.0) -> None:
         self.endpoint = _endpoint(endpoint)
         self.timeout = timeout
+        self.complete_timeout = complete_timeout
+
+    def _complete_deadline(self) -> float:
+        return time.monotonic() + max(self.complete_timeout or 0, 0)
+
+    def _get_complete_json(self, path: str, deadline: float) -> Dict[str, Any]:
+        """GET ``path`` again until the answer says the table is complete, or ``deadline``."""
+        while True:
+            reply = self._get_json(path)
+            left = deadline - time.monotonic()
+            if _complete(reply) or left <= 0:
+                return reply
+            time.sleep(min(left, _COMPLETE_POLL))
 
     def _connection(self, timeout: float) -> http.client.HTTPConnection:
         if self.endpoint.path is not None:
@@ -540,18 +601,35 @@ class Client:
     def list_devices(self, domain: Optional[int] = None, product_line: Optional[str] = None,
                      source: Optional[str] = None) -> List[Device]:
         """The devices the daemon knows now, optionally filtered (DDS domain, product line,
-        ``dds``/``usb``)."""
-        devices = self._get_json("/v1/devices" + _query(domain, product_line, source)).get("devices")
+        ``dds``/``usb``). Waits for the complete table first (``complete_timeout``)."""
+        return self._list(domain, product_line, source, self._complete_deadline())
+
+    def _list(self, domain: Optional[int], product_line: Optional[str], source: Optional[str],
+              deadline: float) -> List[Device]:
+        path = "/v1/devices" + _query(domain, product_line, source)
+        devices = self._get_complete_json(path, deadline).get("devices")
         if not isinstance(devices, list) or not all(isinstance(d, dict) and "id" in d for d in devices):
             raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: no list of devices")
         return devices
 
     def get_device(self, device_id: str) -> Device:
-        """One device by its id; raises :class:`NotFound` when there is none."""
+        """One device by its id; raises :class:`NotFound` when there is none. While the
+        daemon's first discovery runs, an absent device is waited for (``complete_timeout``)."""
         path = "/v1/devices/" + urllib.parse.quote(device_id, safe="")
-        status, body = self._request(path)
-        if status == 404:
-            raise NotFound(f"no device {device_id!r} at rs-discoveryd ({self.endpoint})")
+        deadline = self._complete_deadline()
+        while True:
+            status, body = self._request(path)
+            if status != 404:
+                break
+            # Absent from an incomplete table: it may be a camera not heard from yet.
+            try:
+                doc = json.loads(body)
+            except ValueError:
+                doc = None
+            left = deadline - time.monotonic()
+            if not isinstance(doc, dict) or _complete(doc) or left <= 0:
+                raise NotFound(f"no device {device_id!r} at rs-discoveryd ({self.endpoint})")
+            time.sleep(min(left, _COMPLETE_POLL))
         if status != 200:
             raise self._status_error(path, status, body)
         doc = self._json_object(path, body)
@@ -568,7 +646,8 @@ class Client:
         return doms
 
     def health(self) -> Dict[str, Any]:
-        """``{"status": "ok", "version": ..., "devices": N}``."""
+        """``{"status": "ok", "version": ..., "devices": N, "complete": true, ...}``; ``complete`` is
+        false while the daemon's first discovery still runs (``devices`` is not final then)."""
         return self._get_json("/healthz")
 
     def watcher(self, **kwargs: Any) -> Watcher:
@@ -577,30 +656,37 @@ class Client:
 
     def watch(self, initial: bool = False, last_event_id: Optional[int] = None, reconnect: bool = True,
               domain: Optional[int] = None, product_line: Optional[str] = None,
-              source: Optional[str] = None) -> Iterator[Event]:
+              source: Optional[str] = None, complete_timeout: float = 10.0) -> Iterator[Event]:
         """A generator of :class:`Event` that runs until closed (``break`` out, or ``close()``).
 
         It resumes by itself after a disconnect or a daemon restart, reporting what
         changed meanwhile. ``initial``: first yield every present device as ``added``.
         ``last_event_id``: resume after an id saved from an earlier watch.
+        ``complete_timeout``: every list the watch takes (at its start, after a daemon
+        restart) first waits up to this many seconds for the daemon's first discovery, so
+        a camera there before and after a restart is not reported removed and added again.
         """
         w = Watcher(self, initial=initial, last_event_id=last_event_id, reconnect=reconnect, domain=domain,
-                    product_line=product_line, source=source)
+                    product_line=product_line, source=source, complete_timeout=complete_timeout)
         return _generate(w)
 
     def wait_for(self, predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0,
                  count: int = 1, domain: Optional[int] = None, product_line: Optional[str] = None,
                  source: Optional[str] = None) -> Optional[Device]:
         """Waits until ``count`` devices matching the filters and ``predicate`` are present;
-        returns the first of them, or ``None`` when ``timeout`` seconds pass first."""
+        returns the first of them, or ``None`` when ``timeout`` seconds pass first. Like
+        :meth:`list_devices` it looks at the complete table (bounded by ``complete_timeout``
+        and by ``timeout``)."""
         def hit(devices: List[Device]) -> List[Device]:
             return [d for d in devices if predicate is None or predicate(d)]
 
-        now = hit(self.list_devices(domain, product_line, source))
+        deadline = time.monotonic() + timeout
+        complete_by = min(deadline, self._complete_deadline())
+        now = hit(self._list(domain, product_line, source, complete_by))
         if len(now) >= count:
             return now[0]
-        deadline = time.monotonic() + timeout
-        with Watcher(self, domain=domain, product_line=product_line, source=source) as w:
+        with Watcher(self, domain=domain, product_line=product_line, source=source,
+                     complete_timeout=max(complete_by - time.monotonic(), 0)) as w:
             while True:
                 now = hit(w.devices())
                 if len(now) >= count:
@@ -625,14 +711,15 @@ def _generate(w: Watcher) -> Iterator[Event]:
 # ---- module-level shortcuts ----------------------------------------------------------------
 
 def list_devices(domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
-                 endpoint: "Endpoint | str | None" = None) -> List[Device]:
-    """The devices the daemon knows now (see :meth:`Client.list_devices`)."""
-    return Client(endpoint).list_devices(domain, product_line, source)
+                 endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0) -> List[Device]:
+    """The devices the daemon knows now (see :meth:`Client.list_devices`; ``complete_timeout=0``
+    does not wait for the daemon's first discovery)."""
+    return Client(endpoint, complete_timeout=complete_timeout).list_devices(domain, product_line, source)
 
 
-def get_device(device_id: str, endpoint: "Endpoint | str | None" = None) -> Device:
-    """One device by id; raises :class:`NotFound`."""
-    return Client(endpoint).get_device(device_id)
+def get_device(device_id: str, endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0) -> Device:
+    """One device by id; raises :class:`NotFound` (see :meth:`Client.get_device`)."""
+    return Client(endpoint, complete_timeout=complete_timeout).get_device(device_id)
 
 
 def domains(endpoint: "Endpoint | str | None" = None) -> List[Dict[str, Any]]:
@@ -647,13 +734,15 @@ def health(endpoint: "Endpoint | str | None" = None) -> Dict[str, Any]:
 
 def wait_for(predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0, count: int = 1,
              domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
-             endpoint: "Endpoint | str | None" = None) -> Optional[Device]:
+             endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0) -> Optional[Device]:
     """Waits for a device (see :meth:`Client.wait_for`)."""
-    return Client(endpoint).wait_for(predicate, timeout, count, domain, product_line, source)
+    return Client(endpoint, complete_timeout=complete_timeout).wait_for(predicate, timeout, count, domain,
+                                                                        product_line, source)
 
 
 def watch(initial: bool = False, last_event_id: Optional[int] = None, reconnect: bool = True,
           domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
-          endpoint: "Endpoint | str | None" = None) -> Iterator[Event]:
+          endpoint: "Endpoint | str | None" = None, complete_timeout: float = 10.0) -> Iterator[Event]:
     """A resumable generator of events (see :meth:`Client.watch`)."""
-    return Client(endpoint).watch(initial, last_event_id, reconnect, domain, product_line, source)
+    return Client(endpoint).watch(initial, last_event_id, reconnect, domain, product_line, source,
+                                  complete_timeout)
