@@ -60,7 +60,7 @@ struct SessionOptions {
   // loss the participant is made anew (a refresh), and again, backing off by 4x
   // up to lost_refresh_max, while the server stays lost; after lost_forget_after
   // it is given up (a crashed server comes back with another GUID anyway).
-  std::chrono::milliseconds lost_refresh_first{2000};
+  std::chrono::milliseconds lost_refresh_first{500};
   std::chrono::milliseconds lost_refresh_max{std::chrono::minutes(10)};
   std::chrono::milliseconds lost_forget_after{std::chrono::minutes(30)};
   // Writers and their participant leave in either order on a lease expiry: a
