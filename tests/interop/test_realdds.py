@@ -173,3 +173,31 @@ def test_one_server_announcing_a_hundred_devices_at_once(free_domain, daemon, re
     realdds_server(free_domain, infos)
     wait_for(lambda: len(d.devices()) == 100, timeout=30, what="all 100 devices")
     assert sorted(dev["serial"] for dev in d.devices()) == sorted(i["serial"] for i in infos)
+
+
+def test_device_stays_while_any_server_announces_it(free_domain, daemon, realdds_server):
+    """Two servers announce one topic-root (a camera served twice, or a hand-over):
+    the device lives while either's writer does, and shows a server still alive."""
+    cam = device_info(1)
+    older = realdds_server(free_domain, [cam], name="older-server")
+    d = daemon([free_domain])
+    cam_id = dds_id(free_domain, cam)
+    wait_for(lambda: d.device_ids() == [cam_id], what="the camera from the older server")
+    newer = realdds_server(free_domain, [cam], name="newer-server")
+    wait_for(lambda: d.get_json(f"/v1/devices/{cam_id}")["server"]["participant-name"] == "newer-server",
+             what="the camera shown from the newer server")
+    events = EventStream(d)
+
+    newer.kill()  # SIGKILL: noticed at its lease; the older server still serves the camera
+    wait_for(lambda: d.get_json(f"/v1/devices/{cam_id}")["server"]["participant-name"] == "older-server",
+             timeout=LEASE_S + LEASE_MARGIN_S, what="the camera shown from the older server")
+    ev = events.next()
+    assert ev["event"] == "changed" and ev["json"]["server"]["participant-name"] == "older-server", ev
+    assert d.device_ids() == [cam_id]
+
+    older.command(cmd="disconnect", **{"topic-root": cam["topic-root"]})  # the last one says 'stopping'
+    ev = events.next()
+    assert ev["event"] == "removed" and ev["json"]["id"] == cam_id, ev
+    assert d.device_ids() == []
+    events.close()
+    older.quit()
