@@ -150,6 +150,8 @@ nlohmann::json domain_status_json(const DomainStatus& s) {
           {"stopping", s.stopping},
           {"rejected", rejected},
           {"rebuilds", s.rebuilds},
+          {"refreshes", s.refreshes},
+          {"lost-servers", s.lost_servers},
           {"complete", s.complete}};
 }
 
@@ -239,6 +241,15 @@ std::string render_metrics(const MetricsInput& in) {
   w.family("rsd_domain_rebuilds_total", "counter", "Times a domain's participant was rebuilt.");
   for (const auto& d : in.domains)
     w.sample("rsd_domain_rebuilds_total", {{"domain", std::to_string(d.domain)}}, d.rebuilds);
+
+  w.family("rsd_domain_refreshes_total", "counter",
+           "Rebuilds the daemon made by itself to find a server lost without 'stopping'.");
+  for (const auto& d : in.domains)
+    w.sample("rsd_domain_refreshes_total", {{"domain", std::to_string(d.domain)}}, d.refreshes);
+
+  w.family("rsd_domain_lost_servers", "gauge", "Servers lost without 'stopping' that are still looked for.");
+  for (const auto& d : in.domains)
+    w.sample("rsd_domain_lost_servers", {{"domain", std::to_string(d.domain)}}, d.lost_servers);
 
   if (in.usb) {
     w.family("rsd_usb_up", "gauge", "1 when local USB is watched (hotplug or polling), by state.");

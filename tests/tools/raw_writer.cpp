@@ -6,6 +6,11 @@
 // prints "matched" once a reader on the topic is matched, then reads lines
 // "FORMAT HEX" (FORMAT: the data_format number, HEX: the payload in hex, "-"
 // for none) from stdin, writes each as one sample and answers "ok" or "error ...".
+//
+//   rsd-raw-writer DOMAIN --flood COUNT RATE
+// a rogue writer: once matched, writes COUNT valid device-infos, each with a
+// random topic-root, at RATE messages per second, prints "flooded N SECONDS"
+// and exits (its writer goes with it).
 #include "dds/flexible_topic.hpp"
 
 #include "flexible.h"
@@ -13,14 +18,17 @@
 #include <dds/dds.h>
 
 #include <chrono>
+#include <cstdio>
 #include <iostream>
+#include <random>
 #include <string>
 #include <thread>
 #include <vector>
 
 int main(int argc, char** argv) {
-  if (argc != 2) {
-    std::cerr << "usage: rsd-raw-writer DOMAIN\n";
+  const bool flood = argc == 5 && std::string(argv[2]) == "--flood";
+  if (argc != 2 && !flood) {
+    std::cerr << "usage: rsd-raw-writer DOMAIN [--flood COUNT RATE]\n";
     return 2;
   }
   const auto domain = static_cast<dds_domainid_t>(std::stoul(argv[1]));
@@ -53,6 +61,32 @@ int main(int argc, char** argv) {
     }
   }
   std::cout << "matched" << std::endl;
+
+  if (flood) {
+    const long count = std::stol(argv[3]);
+    const double rate = std::stod(argv[4]);
+    std::mt19937_64 random(std::random_device{}());
+    const auto start = std::chrono::steady_clock::now();
+    for (long i = 0; i < count; ++i) {
+      if (i % 100 == 0)  // paced in batches: a sleep per message would be too coarse
+        std::this_thread::sleep_until(start + std::chrono::duration<double>(static_cast<double>(i) / rate));
+      char text[160];
+      const auto r = random();
+      const int len = std::snprintf(text, sizeof text,
+                                    R"({"name":"Rogue","serial":"%016llx","topic-root":"realsense/rogue_%016llx"})",
+                                    static_cast<unsigned long long>(r), static_cast<unsigned long long>(r));
+      realdds_topics_raw_flexible msg{};
+      msg.data_format = realdds_topics_raw_FLEXIBLE_DATA_JSON;
+      msg.data._length = msg.data._maximum = static_cast<std::uint32_t>(len);
+      msg.data._buffer = reinterpret_cast<std::uint8_t*>(text);
+      msg.data._release = false;
+      dds_write(writer, &msg);
+    }
+    const std::chrono::duration<double> took = std::chrono::steady_clock::now() - start;
+    std::cout << "flooded " << count << " " << took.count() << std::endl;
+    dds_delete(participant);
+    return 0;
+  }
 
   std::string line;
   while (std::getline(std::cin, line)) {
