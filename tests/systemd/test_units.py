@@ -43,7 +43,7 @@ def test_security_exposure_is_at_most_1_5(tmp_path):
 
 def test_service_contract_settings():
     text = open(os.path.join(UNITS, "rs-discoveryd.service")).read()
-    for line in ("Type=notify", "NotifyAccess=main", "ExecReload=/bin/kill -HUP $MAINPID", "User=rs-discoveryd",
+    for line in ("Type=notify", "NotifyAccess=main", "ExecReload=/bin/sh -c 'kill -HUP $$MAINPID'", "User=rs-discoveryd",
                  "RuntimeDirectory=rs-discoveryd", "RuntimeDirectoryPreserve=yes", "Requires=rs-discoveryd.socket",
                  "RestrictAddressFamilies=AF_UNIX AF_INET AF_INET6 AF_NETLINK", "CapabilityBoundingSet=\n"):
         assert line in text, line
