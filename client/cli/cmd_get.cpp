@@ -3,6 +3,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <chrono>
 #include <set>
 
 namespace rsdiscover {
@@ -16,12 +18,20 @@ void row(const char* key, const std::string& value) {
 int run(const ParsedArgs& args) {
   if (args.positional.size() != 1) throw UsageError("give exactly one device ID");
   const std::string& key = args.positional[0];
-  auto client = make_client(args);
+  auto options = client_options(args);
+  const auto started = std::chrono::steady_clock::now();
+  rsdiscovery::Client client(args.get("endpoint"), options);
   auto device = client.find_device(key);  // waits for the complete table, unless told not to
   bool complete = true;
   if (!device) {
     std::vector<rsdiscovery::Device> hits;
-    auto list = client.list();  // find_device() has waited for the complete table already
+    // What is left of the one wait for the complete table (find_device() has normally
+    // seen it complete already, and this list is then immediate).
+    options.complete_timeout = std::max(
+        options.complete_timeout - std::chrono::duration_cast<std::chrono::milliseconds>(
+                                       std::chrono::steady_clock::now() - started),
+        std::chrono::milliseconds::zero());
+    auto list = rsdiscovery::Client(args.get("endpoint"), options).list();
     complete = list.complete;
     for (auto& d : list.devices)
       if (d.serial == key || d.topic_root == key) hits.push_back(std::move(d));

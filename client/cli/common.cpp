@@ -137,7 +137,7 @@ void print_help(const Command& c, std::FILE* out) {
              out);
 }
 
-rsdiscovery::Client make_client(const ParsedArgs& args) {
+rsdiscovery::ClientOptions client_options(const ParsedArgs& args) {
   rsdiscovery::ClientOptions options;
   if (args.has("no-wait-complete") && args.has("complete-timeout"))
     throw UsageError("--no-wait-complete and --complete-timeout exclude each other");
@@ -147,7 +147,11 @@ rsdiscovery::Client make_client(const ParsedArgs& args) {
     options.complete_timeout =
         std::chrono::milliseconds(static_cast<long long>(args.get_seconds("complete-timeout", 0) * 1000));
   }
-  return rsdiscovery::Client(args.get("endpoint"), options);
+  return options;
+}
+
+rsdiscovery::Client make_client(const ParsedArgs& args) {
+  return rsdiscovery::Client(args.get("endpoint"), client_options(args));
 }
 
 rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args) {

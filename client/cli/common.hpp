@@ -74,7 +74,8 @@ struct Output {
 };
 Output& output();
 
-rsdiscovery::Client make_client(const ParsedArgs& args);
+rsdiscovery::ClientOptions client_options(const ParsedArgs& args);  // --no-wait-complete ...
+rsdiscovery::Client make_client(const ParsedArgs& args);  // --endpoint and client_options()
 rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args);
 
 // The warning for an answer taken before the daemon's first discovery ended.

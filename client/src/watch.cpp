@@ -334,7 +334,16 @@ json WatchCore::list_complete() {
 }
 
 std::optional<std::uint64_t> WatchCore::relist(bool emit) {
-  json reply = list_complete();
+  bool compare = false;
+  {
+    std::lock_guard lock(mutex_);
+    compare = view_complete_;
+  }
+  // Only a list compared with a view it replaces needs the complete table. The first
+  // list is the starting point: what the daemon has now, with every later addition
+  // still to come as an event; waiting there would fold cameras that arrive meanwhile
+  // into the starting point, unreported.
+  json reply = compare ? list_complete() : lister_.get_json(detail::devices_path(options_.filter));
   std::optional<std::uint64_t> generation;
   if (auto g = reply.find("generation"); g != reply.end() && g->is_number_unsigned())
     generation = g->get<std::uint64_t>();

@@ -46,6 +46,7 @@ class WatchCore {
   std::optional<std::uint64_t> relist(bool emit);
   // GET /v1/devices again until the daemon says its table is complete, or until
   // options_.complete_timeout; throws Error(cancelled) when the watch is stopped.
+  // For re-lists that replace a view (after a resync), not for the first list.
   nlohmann::json list_complete();
   void status(bool connected, const std::string& message);
   void first_result(std::exception_ptr error);

@@ -202,11 +202,12 @@ struct WatchOptions {
   // A stream silent for this long is taken as dead and reconnected (the daemon
   // sends keep-alive comments well within it).
   std::chrono::milliseconds idle_timeout{60000};
-  // Every list the watch takes (at its start, and after a daemon restart) first waits
-  // this long at most for the daemon's first discovery to be over. So a restarted
-  // daemon's list is compared with the view only once it is whole, and a camera that
-  // was there before and after the restart is not reported removed and added again.
-  // 0: take the list as it is (cameras not heard again yet then show up as removed).
+  // After a daemon restart (a resync), the watch waits this long at most for the
+  // restarted daemon's first discovery to be over before it compares its list with the
+  // view: so a camera that was there before and after the restart is not reported
+  // removed and added again. 0: compare at once (cameras not heard from again yet then
+  // show up as removed, and added a moment later). The first list is not waited for:
+  // it is the starting point, and what arrives after it is reported as events.
   std::chrono::milliseconds complete_timeout{10000};
 };
 

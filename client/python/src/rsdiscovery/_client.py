@@ -270,9 +270,9 @@ class Watcher:
     It lists the devices, then streams from the generation of that list, so nothing
     falls in between; after a disconnect it resumes with ``Last-Event-ID``, and when the
     daemon cannot fill the gap (it restarted) it re-lists and reports the difference as
-    synthetic events. Every list first waits (up to ``complete_timeout`` seconds) for the
-    daemon's first discovery to be over, so a camera there before and after a restart
-    is not reported removed and added again. Iterate it, or call :meth:`next` with a timeout; :meth:`close` ends
+    synthetic events. That re-list first waits (up to ``complete_timeout`` seconds) for the
+    restarted daemon's first discovery to be over, so a camera there before and after the
+    restart is not reported removed and added again. Iterate it, or call :meth:`next` with a timeout; :meth:`close` ends
     it (also as a context manager).
     """
 
@@ -395,7 +395,12 @@ class Watcher:
                 raise _Closed("the watch was closed")
 
     def _relist(self, emit: bool) -> Optional[int]:
-        reply = self._list_complete()
+        # Only a list that replaces a view (after a resync) needs the complete table; the
+        # first is the starting point, and what arrives after it comes as events.
+        if self._complete:
+            reply = self._list_complete()
+        else:
+            reply = self._client._get_json("/v1/devices" + _query(*self._filters))
         devices = reply.get("devices")
         if not isinstance(devices, list) or not all(isinstance(d, dict) and isinstance(d.get("id"), str)
                                                     for d in devices):
@@ -662,9 +667,9 @@ class Client:
         It resumes by itself after a disconnect or a daemon restart, reporting what
         changed meanwhile. ``initial``: first yield every present device as ``added``.
         ``last_event_id``: resume after an id saved from an earlier watch.
-        ``complete_timeout``: every list the watch takes (at its start, after a daemon
-        restart) first waits up to this many seconds for the daemon's first discovery, so
-        a camera there before and after a restart is not reported removed and added again.
+        ``complete_timeout``: after a daemon restart, the watch waits up to this many seconds
+        for the restarted daemon's first discovery before comparing, so a camera there
+        before and after the restart is not reported removed and added again.
         """
         w = Watcher(self, initial=initial, last_event_id=last_event_id, reconnect=reconnect, domain=domain,
                     product_line=product_line, source=source, complete_timeout=complete_timeout)
