@@ -26,6 +26,10 @@ DEB_PACKAGES=(
   systemd debhelper devscripts lintian fakeroot dpkg-dev
   # the systemd tests trace the daemon's system calls against the unit's filter
   strace
+  # the Python client's package (python3-rsdiscovery), built by packaging/build-deb
+  dh-python pybuild-plugin-pyproject python3-all python3-setuptools python3-wheel
+  # the real-systemd test: a minimal Debian booted with systemd-nspawn
+  mmdebstrap systemd-container
 )
 
 say() { printf '\n==> %s\n' "$*"; }
@@ -57,11 +61,16 @@ python_env() {
   fi
 }
 
-build() {  # build DIR [cmake args...]; later arguments win
+configure() {  # configure DIR [cmake args...]; later arguments win
   local dir=$1
   shift
-  say "building in $dir"
   cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRSD_WERROR=ON "$@" >/dev/null
+}
+
+build() {  # build DIR [cmake args...]: every target, tests included
+  local dir=$1
+  say "building in $dir"
+  configure "$@"
   cmake --build "$dir" -j"$(nproc)"
 }
 
@@ -69,7 +78,9 @@ case "${1:-}" in
   run)
     shift
     install_packages
-    build build
+    say "building the daemon in build"
+    configure build
+    cmake --build build -j"$(nproc)" --target rs-discoveryd  # what runs, not the tests
     say "starting rs-discoveryd (Ctrl-C stops it)"
     exec build/daemon/rs-discoveryd "$@"
     ;;
