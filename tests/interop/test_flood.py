@@ -11,6 +11,10 @@ from test_realdds import dds_id
 
 RAW_WRITER = os.environ["RSD_RAW_WRITER"]
 RSS_LIMIT_KB = 256 * 1024
+# Under AddressSanitizer freed memory sits in its quarantine (256 MB) and every
+# allocation has shadow: RSS says nothing about the daemon there. The flood still
+# runs (the sanitizers watch its threads); only the RSS bounds are the plain build's.
+SANITIZED = bool(os.environ.get("RSD_SANITIZER_FLAGS"))
 
 
 def rss_kb(pid):
@@ -50,7 +54,7 @@ def test_flood_is_capped_counted_and_forgotten(free_domain, daemon, realdds_serv
 
     peak = flood(free_domain, 30000, 10000, d.proc.pid)  # 3 s at 10,000 messages/s
     print(f"RSS before {before} kB, peak during the flood {peak} kB")
-    assert peak <= RSS_LIMIT_KB, peak
+    assert SANITIZED or peak <= RSS_LIMIT_KB, peak
     # The per-participant cap (128 by default) took the first ones, refused the rest.
     refused = wait_for(lambda: rejected(d, "participant-device-limit"), what="refusals counted")
     assert d.get_json("/v1/domains")["domains"][0]["accepted"] == 1 + 128  # the camera's, then the cap's
@@ -66,10 +70,11 @@ def test_flood_is_capped_counted_and_forgotten(free_domain, daemon, realdds_serv
     server.command(cmd="add", info=late)
     wait_for(lambda: dds_id(free_domain, late) in d.device_ids(), timeout=5, what="a real camera added at once")
     # Memory comes back to within 20 % of what it was before the flood.
+    if SANITIZED:
+        return
     after = wait_for(lambda: (lambda r: r if r <= before * 1.2 else None)(rss_kb(d.proc.pid)), timeout=40,
                      interval=0.5, what=f"RSS back within 20 % of {before} kB")
     print(f"RSS after {after} kB")
-    server.quit()
 
 
 def test_domain_cap(free_domain, daemon, realdds_server):
