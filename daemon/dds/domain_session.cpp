@@ -71,7 +71,7 @@ std::string guid_to_string(const dds_guid_t& guid) {
 }
 
 DomainSession::DomainSession(SharedTable& table, SessionOptions options)
-    : table_(table), options_(std::move(options)) {}
+    : table_(table), options_(std::move(options)), lost_servers_(options_.lost) {}
 
 DomainSession::~DomainSession() { stop(); }
 
@@ -145,8 +145,7 @@ void DomainSession::stop() {
   state_ = "stopped";
   participant_guid_.clear();
   writers_.clear();
-  alive_participants_.clear();  // the next participant hears them anew
-  suspects_.clear();
+  lost_servers_.participant_rebuilt();  // the next participant hears them anew
   reconcile_at_.reset();
 }
 
@@ -228,7 +227,16 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   bool refresh = false;
   {
     std::lock_guard lock(mutex_);
-    refresh = lost_servers_due(now);
+    const auto verdict = lost_servers_.check(now);
+    const std::string d = "domain " + std::to_string(options_.domain) + ": ";
+    for (const auto& guid : verdict.newly_lost)
+      log::notice(d + "server " + guid +
+                  " was lost without saying 'stopping' (crashed, or behind a network cut); looking for it again");
+    for (const auto& guid : verdict.given_up) log::info(d + "gave up looking for server " + guid);
+    if (verdict.refresh)
+      log::notice(d + "refreshing the DDS participant to find " + std::to_string(lost_servers_.size()) +
+                  " lost server(s) again; devices are kept");
+    refresh = verdict.refresh;
     if (reconcile_at_ && now >= *reconcile_at_) {
       reconcile_at_.reset();
       drop_devices_without_writer(reader_, nullptr);
@@ -298,8 +306,8 @@ void DomainSession::take_participant_changes(dds_entity_t reader) {
       for (dds_return_t i = 0; i < n; ++i) {
         const auto* p = static_cast<const dds_builtintopic_participant_t*>(samples[static_cast<std::size_t>(i)]);
         const std::string guid = guid_to_string(p->key);
-        if (infos[static_cast<std::size_t>(i)].instance_state == DDS_IST_ALIVE) alive_participants_.insert(guid);
-        else alive_participants_.erase(guid);
+        if (infos[static_cast<std::size_t>(i)].instance_state == DDS_IST_ALIVE) lost_servers_.participant_alive(guid);
+        else lost_servers_.participant_gone(guid);
       }
     }
     dds_return_loan(reader, samples.data(), n);
@@ -439,7 +447,7 @@ void DomainSession::handle_sample(dds_entity_t reader, dds_instance_handle_t pub
     server["participant-name"] = s.name;
     server["addresses"] = s.addresses;
     server["writer-guid"] = writer->guid;
-    lost_servers_.erase(writer->participant_guid);  // found again, if it was lost
+    lost_servers_.announced(writer->participant_guid);  // found again, if it was lost
   }
   doc["server"] = server;
   Announced& device = devices_[id];
@@ -527,7 +535,7 @@ void DomainSession::drop_devices_without_writer(dds_entity_t reader, const std::
     if (drop_announcer(id, writer, "its writer " + writer + " is gone")) {
       // A device gone with its writer, not by 'stopping': its server may be lost.
       const std::string participant = participant_of(writer);
-      if (!lost_servers_.count(participant)) suspects_.emplace(participant, now);
+      lost_servers_.writer_lost(participant, now);
     }
   }
   // Forget servers that have no writer left, or a long-lived daemon would keep
@@ -535,43 +543,6 @@ void DomainSession::drop_devices_without_writer(dds_entity_t reader, const std::
   std::set<std::string> with_writers;
   for (const auto& [h, w] : writers_) with_writers.insert(w.participant_guid);
   std::erase_if(servers_, [&](const auto& entry) { return !with_writers.count(entry.first); });
-}
-
-bool DomainSession::lost_servers_due(Clock::time_point now) {
-  const std::string d = "domain " + std::to_string(options_.domain) + ": ";
-  for (auto it = suspects_.begin(); it != suspects_.end();) {
-    if (now - it->second < options_.lost_check_delay) {
-      ++it;
-      continue;
-    }
-    if (!alive_participants_.count(it->first) && !lost_servers_.count(it->first)) {
-      log::notice(d + "server " + it->first +
-                  " was lost without saying 'stopping' (crashed, or behind a network cut); looking for it again");
-      lost_servers_[it->first] = LostServer{it->second, it->second + options_.lost_refresh_first, 0};
-    }
-    it = suspects_.erase(it);
-  }
-  bool due = false;
-  for (auto it = lost_servers_.begin(); it != lost_servers_.end();) {
-    if (now - it->second.lost_at >= options_.lost_forget_after) {
-      log::info(d + "gave up looking for server " + it->first);
-      it = lost_servers_.erase(it);
-      continue;
-    }
-    due = due || now >= it->second.next_refresh;
-    ++it;
-  }
-  if (!due) return false;
-  // One refresh serves every lost server; each backs off on its own count.
-  for (auto& [guid, lost] : lost_servers_) {
-    ++lost.refreshes;
-    auto wait = options_.lost_refresh_first;
-    for (int i = 0; i < lost.refreshes && wait < options_.lost_refresh_max; ++i) wait *= 4;
-    lost.next_refresh = now + std::min(wait, options_.lost_refresh_max);
-  }
-  log::notice(d + "refreshing the DDS participant to find " + std::to_string(lost_servers_.size()) +
-              " lost server(s) again; devices are kept");
-  return true;
 }
 
 void DomainSession::reject(const std::string& reason, const std::string& detail, const std::string& sender) {

@@ -5,6 +5,7 @@
 
 #include "dds/device_info.hpp"
 #include "dds/domain_status.hpp"
+#include "dds/lost_servers.hpp"
 #include "table/shared_table.hpp"
 
 #include <dds/dds.h>
@@ -56,16 +57,10 @@ struct SessionOptions {
   // than Cyclone's lease of the server but shorter than the server's lease of us,
   // the same Cyclone participant never sees the server's writers again
   // (measured: a 5 s cut, still missing 20 s after the heal); a participant made
-  // after the loss finds it like any new peer. So lost_refresh_first after such a
-  // loss the participant is made anew (a refresh), and again, backing off by 4x
-  // up to lost_refresh_max, while the server stays lost; after lost_forget_after
-  // it is given up (a crashed server comes back with another GUID anyway).
-  std::chrono::milliseconds lost_refresh_first{500};
-  std::chrono::milliseconds lost_refresh_max{std::chrono::minutes(10)};
-  std::chrono::milliseconds lost_forget_after{std::chrono::minutes(30)};
-  // Writers and their participant leave in either order on a lease expiry: a
-  // server is judged lost this long after its devices' writers went.
-  std::chrono::milliseconds lost_check_delay{500};
+  // after the loss finds it like any new peer. So after such a loss the
+  // participant is made anew (a refresh), backing off, while the server stays
+  // lost (LostServers).
+  LostServerTimes lost;
   // realdds servers broadcast to a reader as soon as it matches, which takes a
   // few ms once discovery has settled: this long after the first reader exists,
   // the domain's first discovery counts as complete (DomainStatus::complete).
@@ -114,21 +109,11 @@ class DomainSession {
     int silent_retries = 0;
   };
 
-  // A server lost without saying 'stopping', looked for (see lost_* options).
-  struct LostServer {
-    Clock::time_point lost_at;
-    Clock::time_point next_refresh;
-    int refreshes = 0;
-  };
-
   static void on_data_available(dds_entity_t reader, void* arg);
   static void on_participant_data(dds_entity_t reader, void* arg);
   static void on_subscription_matched(dds_entity_t reader, dds_subscription_matched_status_t status,
                                       void* arg);
   void take_participant_changes(dds_entity_t reader);
-  // Suspects whose participant is gone become lost servers; says whether a
-  // refresh is due. Needs mutex_ held.
-  bool lost_servers_due(Clock::time_point now);
   void take_samples(dds_entity_t reader);
   void handle_sample(dds_entity_t reader, dds_instance_handle_t publication, std::int32_t format,
                      std::span<const std::uint8_t> data);
@@ -177,9 +162,7 @@ class DomainSession {
   bool drop_announcer(const std::string& id, const std::string& writer_guid, const std::string& why);
   std::optional<Clock::time_point> reconcile_at_;
   std::optional<Clock::time_point> first_reader_at_;  // kept across rebuilds
-  std::set<std::string> alive_participants_;             // GUIDs, as Cyclone sees them now
-  std::map<std::string, Clock::time_point> suspects_;    // participant GUID -> when its writers went
-  std::map<std::string, LostServer> lost_servers_;       // by participant GUID
+  LostServers lost_servers_;
   std::uint64_t accepted_ = 0, stopping_ = 0, rebuilds_ = 0, refreshes_ = 0;
   std::map<std::string, std::uint64_t> rejected_;
 };

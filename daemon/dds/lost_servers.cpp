@@ -1,0 +1,55 @@
+#include "dds/lost_servers.hpp"
+
+#include <algorithm>
+
+namespace rsd::dds {
+
+void LostServers::participant_rebuilt() {
+  alive_.clear();
+  suspects_.clear();
+}
+
+void LostServers::writer_lost(const std::string& participant, Clock::time_point now) {
+  if (!lost_.count(participant)) suspects_.emplace(participant, now);
+}
+
+LostServers::Verdict LostServers::check(Clock::time_point now) {
+  Verdict verdict;
+  for (auto it = suspects_.begin(); it != suspects_.end();) {
+    if (now - it->second < times_.check_delay) {
+      ++it;
+      continue;
+    }
+    // A participant still alive only dropped a device (or a writer): not lost.
+    if (!alive_.count(it->first) && !lost_.count(it->first)) {
+      // A refresh made since the loss already served it (no second rebuild
+      // 100 ms after the first): its count goes on from that one.
+      const bool served = last_refresh_ && *last_refresh_ >= it->second;
+      lost_[it->first] = served ? Lost{it->second, *last_refresh_ + times_.refresh_first * 4, 1}
+                                : Lost{it->second, it->second + times_.refresh_first, 0};
+      verdict.newly_lost.push_back(it->first);
+    }
+    it = suspects_.erase(it);
+  }
+  for (auto it = lost_.begin(); it != lost_.end();) {
+    if (now - it->second.lost_at >= times_.forget_after) {
+      verdict.given_up.push_back(it->first);
+      it = lost_.erase(it);
+      continue;
+    }
+    verdict.refresh = verdict.refresh || now >= it->second.next_refresh;
+    ++it;
+  }
+  if (!verdict.refresh) return verdict;
+  last_refresh_ = now;
+  // One refresh serves every lost server; each backs off on its own count.
+  for (auto& [guid, lost] : lost_) {
+    ++lost.refreshes;
+    auto wait = times_.refresh_first;
+    for (int i = 0; i < lost.refreshes && wait < times_.refresh_max; ++i) wait *= 4;
+    lost.next_refresh = now + std::min(wait, times_.refresh_max);
+  }
+  return verdict;
+}
+
+}  // namespace rsd::dds
