@@ -277,6 +277,19 @@ class JsonLinesProcess:
             self.lines.put(json.loads(line))
         self.lines.put(None)
 
+    def drain(self):
+        """Every line read so far (waits for none); fails the test if the process ended."""
+        import queue
+
+        out = []
+        while True:
+            try:
+                item = self.lines.get_nowait()
+            except queue.Empty:
+                return out
+            assert item is not None, f"{self.proc.args[0]} ended"
+            out.append(item)
+
 
 class EventStream:
     """A client of /v1/events, read on a thread so tests can wait with deadlines."""

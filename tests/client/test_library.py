@@ -1,6 +1,5 @@
 """The C++ library against the real daemon: the example program, the push-style watch
 (callback) through a daemon restart, and wait_for."""
-import queue
 import subprocess
 
 import pytest
@@ -43,15 +42,6 @@ class Subscriber(JsonLinesProcess):
     def __init__(self, endpoint):
         super().__init__([DRIVER, "subscribe", endpoint], stdin=subprocess.PIPE)
 
-    def drain(self):
-        out = []
-        while True:
-            try:
-                item = self.lines.get_nowait()
-            except queue.Empty:
-                return out
-            assert item is not None, "driver ended"
-            out.append(item)
 
     def stop(self):
         self.proc.stdin.close()

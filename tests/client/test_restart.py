@@ -6,7 +6,6 @@ The real daemon and real realdds servers; the C++ library (the CLI's pull-style 
 the test driver's callback watch) and the Python package from the tree."""
 import json
 import os
-import queue
 import signal
 import subprocess
 import sys
@@ -43,14 +42,10 @@ class Lines(JsonLinesProcess):
     """A watch process printing one JSON object a line; `take()` drains what came."""
 
     def take(self):
-        out = []
-        while True:
-            try:
-                item = self.lines.get_nowait()
-            except queue.Empty:
-                return out
-            assert item is not None, f"{self.proc.args[0]} ended: {self.proc.stderr.read()}"
-            out.append(item)
+        try:
+            return self.drain()
+        except AssertionError as e:
+            raise AssertionError(f"{e}: {self.proc.stderr.read()}") from None
 
 
 class PythonWatch:

@@ -84,7 +84,7 @@ def test_cyclone11_writer_and_reader_beside_realdds(free_domain, daemon, realdds
     # The peer's reader is a working reader on the same topic (whether it catches
     # realdds' one broadcast is the late-reader race of any Cyclone reader).
     writer.send(json=other)
-    wait_for(lambda: any(other["topic-root"] in x.get("data", "") for x in _drain(reader)), timeout=20,
+    wait_for(lambda: any(other["topic-root"] in x.get("data", "") for x in reader.drain()), timeout=20,
              what="the Cyclone 11 reader receiving the Cyclone 11 writer's device-info")
 
     # realdds is served as before, with the peers still there.
@@ -102,12 +102,3 @@ def test_cyclone11_writer_and_reader_beside_realdds(free_domain, daemon, realdds
     assert d.healthy()
     realdds.quit()
 
-
-def _drain(peer):
-    out = []
-    while not peer.lines.empty():
-        line = peer.lines.get()
-        if line is None:
-            break
-        out.append(line)
-    return out
