@@ -72,20 +72,21 @@ def debs_in(directory):
     return out
 
 
-def build_debs(tree, out, suite=None):
+def build_debs(tree, out, suite=None, env=None):
     """packaging/build-deb of `tree` into `out`; on this host, or inside a minimal
     Debian `suite` container (its build dependencies installed there)."""
     os.makedirs(out, exist_ok=True)
     t0 = time.monotonic()
+    env = dict(env or {}, RSD_DEB_JOBS=os.environ.get("RSD_DEB_JOBS", "2"))
     if suite is None:
-        sh(os.path.join(tree, "packaging", "build-deb"), out, timeout=2400)
+        sh(os.path.join(tree, "packaging", "build-deb"), out, timeout=2400, env=dict(os.environ, **env))
     else:
         root = Container(rootfs(suite, BUILD_TOOLS + build_depends(tree)), name="rsd-build")
         try:
             r = subprocess.run(
                 ["systemd-nspawn", "-q", "-D", root.dir, "--private-network", *nspawn_register_args(),
                  f"--bind-ro={tree}:/src", f"--bind={out}:/out", "--chdir=/src",
-                 f"--setenv=RSD_DEB_JOBS={os.environ.get('RSD_DEB_JOBS', '2')}",
+                 *[f"--setenv={k}={v}" for k, v in env.items()],
                  "/src/packaging/build-deb", "/out"],
                 capture_output=True, text=True, timeout=2400, stdin=subprocess.DEVNULL)
             if r.returncode != 0:
@@ -123,11 +124,17 @@ def previous_debs(suite=None):
         sh("tar", "-x", "-C", tree, stdin=archive.stdout)
         archive.wait()
         set_changelog_version(tree, PREVIOUS_VERSION)
-        partial = out + ".partial"
+        partial = f"{out}.{os.getpid()}.partial"
         shutil.rmtree(partial, ignore_errors=True)
-        build_debs(tree, partial, suite)
-        shutil.rmtree(out, ignore_errors=True)
-        os.rename(partial, out)
+        # That release links cpp-httplib without OpenSSL, which httplib 0.18's
+        # headers call (trixie, where the linker drops unneeded libraries given
+        # before the objects): the linker is given it from outside.
+        try:
+            build_debs(tree, partial, suite, env={"DEB_LDFLAGS_APPEND": "-Wl,--no-as-needed -lssl -lcrypto"} if suite else None)
+            shutil.rmtree(out, ignore_errors=True)
+            os.rename(partial, out)
+        finally:
+            shutil.rmtree(partial, ignore_errors=True)
     return debs_in(out)
 
 

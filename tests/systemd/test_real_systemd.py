@@ -54,7 +54,7 @@ def debs(tmp_path_factory):
                      SUITE if BUILD_IN_CONTAINER else None)
     for p in CURRENT:
         assert p in current, f"{p} not built: {sorted(current)}"
-    return current, previous
+    yield current, previous
 
 
 @pytest.fixture(scope="module")
