@@ -93,8 +93,8 @@ int main(int argc, char** argv) {
   rsd::dds::SessionOptions session_options;
   session_options.participant_name = config.participant_name;
   session_options.cyclone_config = config.cyclonedds_config;
-  session_options.max_devices_per_participant = config.max_devices_per_participant;
-  session_options.max_devices_per_domain = config.max_devices_per_domain;
+  session_options.book.max_devices_per_participant = config.max_devices_per_participant;
+  session_options.book.max_devices_per_domain = config.max_devices_per_domain;
   rsd::service::DomainSet domains(table, session_options);
   try {
     domains.start(config.domains);

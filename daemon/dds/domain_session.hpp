@@ -3,21 +3,17 @@
 // the table; can be torn down and rebuilt while the table keeps the devices.
 #pragma once
 
-#include "dds/device_info.hpp"
+#include "dds/domain_book.hpp"
 #include "dds/domain_status.hpp"
-#include "dds/lost_servers.hpp"
 #include "table/shared_table.hpp"
 
 #include <dds/dds.h>
 
 #include <chrono>
-#include <map>
 #include <mutex>
-#include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <string>
-#include <utility>
-#include <vector>
 
 namespace rsd::dds {
 
@@ -33,34 +29,13 @@ struct SessionOptions {
   // knows a server's writer loses that server's broadcast for good, so the
   // reader waits this long after the participant is made.
   std::chrono::milliseconds settle{1700};
-  // A device writer that matched but sent nothing by then had its broadcast
-  // lost all the same (it raced discovery: seen for a server announcing many
-  // devices at once on a loaded machine): the reader is made anew, which makes
-  // every server broadcast again. Each realdds participant also has one writer
-  // on the topic that never writes, so a server counts as silent from two on.
-  std::chrono::milliseconds silent_grace{2500};
-  int silent_retries = 3;  // per server participant, so a quiet peer can't loop us
-  // Caps: a realdds server announces a handful of devices, and one rogue writer
-  // could announce thousands (150,000 distinct ones in 2 s, measured). Devices
-  // beyond a cap are refused (counted as rejected, logged with a rate limit).
-  std::size_t max_devices_per_participant = 128;
-  std::size_t max_devices_per_domain = 1024;
+  // The domain's bookkeeping: silent writers, caps, reconciliation, lost
+  // servers (see DomainBook); its `domain` is set from the one above.
+  BookOptions book;
   // The reader's history (the topic has no key, so all writers share one
   // instance): deep enough for a server announcing max_devices_per_participant at
   // once, bounded so a flood is dropped by Cyclone instead of queued without end.
   int reader_history = 1024;
-  // After the reader or the participant is made anew, a device whose writer has
-  // not matched again by then is gone.
-  std::chrono::milliseconds reconcile_grace{4000};
-  // A server lost without a 'stopping' (its devices left with their writers, and
-  // its participant is gone too) may be behind a network cut. After a cut longer
-  // than Cyclone's lease of the server but shorter than the server's lease of us,
-  // the same Cyclone participant never sees the server's writers again
-  // (measured: a 5 s cut, still missing 20 s after the heal); a participant made
-  // after the loss finds it like any new peer. So after such a loss the
-  // participant is made anew (a refresh), backing off, while the server stays
-  // lost (LostServers).
-  LostServerTimes lost;
   // realdds servers broadcast to a reader as soon as it matches, which takes a
   // few ms once discovery has settled: this long after the first reader exists,
   // the domain's first discovery counts as complete (DomainStatus::complete).
@@ -88,7 +63,8 @@ class DomainSession {
   // Removes this domain's devices from the table (leaving the domain for good).
   void forget_devices();
 
-  // Timers: reader creation, silent-server retries, reconciliation. The main
+  // Timers: reader creation, and what the book asks for (a new reader, a
+  // refresh). The main
   // loop calls it; returns how soon it wants to be called again.
   Clock::duration tick(Clock::time_point now);
 
@@ -97,38 +73,22 @@ class DomainSession {
   DomainStatus status() const;
 
  private:
-  struct Writer {
-    std::string guid;
-    std::string participant_guid;
-    Clock::time_point matched_at;
-    bool sent = false;  // delivered a sample to the current reader
-  };
-  struct Server {
-    std::string name;
-    std::vector<std::string> addresses;
-    int silent_retries = 0;
-  };
-
   static void on_data_available(dds_entity_t reader, void* arg);
   static void on_participant_data(dds_entity_t reader, void* arg);
   static void on_subscription_matched(dds_entity_t reader, dds_subscription_matched_status_t status,
                                       void* arg);
   void take_participant_changes(dds_entity_t reader);
   void take_samples(dds_entity_t reader);
-  void handle_sample(dds_entity_t reader, dds_instance_handle_t publication, std::int32_t format,
-                     std::span<const std::uint8_t> data);
   void handle_matched(dds_entity_t reader, const dds_subscription_matched_status_t& status);
-  // Looks up (and caches) the writer and its participant; needs mutex_ held.
-  Writer* writer_for(dds_entity_t reader, dds_instance_handle_t publication);
-  // Removes devices whose writer is no longer matched; needs mutex_ held.
-  void drop_devices_without_writer(dds_entity_t reader, const std::string* only_writer);
-  void reject(const std::string& reason, const std::string& detail, const std::string& sender);
+  // Tells the book about `writer` if it does not know it yet (its GUID, its
+  // participant's name and addresses, from Cyclone). Needs mutex_ held.
+  void identify(dds_entity_t reader, dds_instance_handle_t writer);
+  // The writers the reader has now. Needs no lock.
+  std::set<DomainBook::Handle> matched_writers(dds_entity_t reader) const;
 
   void create_reader();
   void delete_reader();
-  void begin_reconcile(Clock::time_point now);
 
-  SharedTable& table_;
   SessionOptions options_;
 
   // DDS entities: made and deleted on the main thread only, never under mutex_
@@ -144,27 +104,9 @@ class DomainSession {
   std::string state_ = "stopped";
   std::string error_;
   std::string participant_guid_;
-  std::map<dds_instance_handle_t, Writer> writers_;       // matched to the current reader
-  std::map<std::string, Server> servers_;                // by participant GUID
-  // A device of this domain in the table, and every writer announcing it: two
-  // servers may serve one topic-root, and the device stays while either does.
-  struct Announced {
-    nlohmann::json doc;  // as last given to the table
-    // writer GUID -> that writer's "server" object; `shown` is the one in `doc`
-    // (the latest announcer still there).
-    std::vector<std::pair<std::string, nlohmann::json>> announcers;
-  };
-  std::map<std::string, Announced> devices_;              // by device id
-  std::map<std::string, std::size_t> devices_per_participant_;  // announced, by participant GUID
-  void add_announcer(Announced& device, const std::string& writer_guid, nlohmann::json server);
-  // Drops one announcer of `id`; the device leaves the table with its last one,
-  // else shows the latest remaining announcer. Returns whether it left.
-  bool drop_announcer(const std::string& id, const std::string& writer_guid, const std::string& why);
-  std::optional<Clock::time_point> reconcile_at_;
+  DomainBook book_;
   std::optional<Clock::time_point> first_reader_at_;  // kept across rebuilds
-  LostServers lost_servers_;
-  std::uint64_t accepted_ = 0, stopping_ = 0, rebuilds_ = 0, refreshes_ = 0;
-  std::map<std::string, std::uint64_t> rejected_;
+  std::uint64_t rebuilds_ = 0, refreshes_ = 0;
 };
 
 // "0110a3b1.22c44e8f.7f000001.000001c1": prefix and entity id, as Cyclone's own

@@ -1,0 +1,258 @@
+#include "dds/domain_book.hpp"
+
+#include "log/log.hpp"
+
+#include <algorithm>
+
+namespace rsd::dds {
+namespace {
+
+log::RateLimiter g_reject_log;
+
+// realdds gives every participant one writer on device-info that never writes
+// (measured: a server with k devices matches k + 1 writers).
+constexpr int kIdleWritersPerServer = 1;
+
+}  // namespace
+
+std::string participant_of(const std::string& writer_guid) {
+  return writer_guid.size() == 35 ? writer_guid.substr(0, 27) + "000001c1" : writer_guid;
+}
+
+DomainBook::DomainBook(SharedTable& table, BookOptions options)
+    : table_(table), options_(std::move(options)), lost_(options_.lost) {}
+
+std::string DomainBook::prefix() const { return "domain " + std::to_string(options_.domain) + ": "; }
+
+void DomainBook::writer_matched(Handle writer, WriterIdentity identity, Clock::time_point now) {
+  if (writers_.count(writer)) return;
+  if (log::enabled(log::Level::debug))
+    log::debug(prefix() + "writer " + identity.guid + " of " + identity.participant_guid + " (" +
+               identity.participant_name + ") matched");
+  writers_.emplace(writer, Writer{std::move(identity), now, false});
+}
+
+void DomainBook::sample(Handle handle, Parsed parsed) {
+  Writer* writer = nullptr;
+  if (auto it = writers_.find(handle); it != writers_.end()) writer = &it->second;
+  const std::string sender = writer ? writer->identity.guid : "unknown writer";
+  if (writer) writer->sent = true;
+
+  if (auto* bad = std::get_if<Rejected>(&parsed)) {
+    reject(bad->reason, bad->detail, sender);
+    return;
+  }
+  if (auto* stop = std::get_if<Stopping>(&parsed)) {
+    ++stopping_;
+    log::info(prefix() + stop->topic_root + " is stopping (from " + sender + ")");
+    stopping(stop->topic_root, writer);
+    return;
+  }
+  auto& info = std::get<DeviceInfo>(parsed);
+  const std::string id = device_id(options_.domain, info.topic_root);
+  if (!devices_.count(id)) {
+    if (devices_.size() >= options_.max_devices_per_domain) {
+      reject("domain-device-limit", "the domain has " + std::to_string(devices_.size()) + " devices already",
+             sender);
+      return;
+    }
+    if (writer) {
+      const std::size_t n = per_participant_[writer->identity.participant_guid];
+      if (n >= options_.max_devices_per_participant) {
+        reject("participant-device-limit", "its participant announces " + std::to_string(n) + " devices already",
+               sender);
+        return;
+      }
+    }
+  }
+  nlohmann::json doc = std::move(info.fields);
+  const auto recovery = doc.find("recovery");
+  const bool in_recovery = recovery != doc.end() && recovery->is_boolean() && recovery->get<bool>();
+  doc["source"] = "dds";
+  doc["domain"] = options_.domain;
+  doc["topic-root"] = info.topic_root;
+  doc["recovery"] = in_recovery;
+  ++accepted_;
+  announce(id, writer, std::move(doc));
+}
+
+void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann::json doc) {
+  Announced& device = devices_[id];
+  nlohmann::json server = nlohmann::json::object();
+  if (writer) {
+    const WriterIdentity& w = writer->identity;
+    server = {{"participant-guid", w.participant_guid},
+              {"participant-name", w.participant_name},
+              {"addresses", w.addresses},
+              {"writer-guid", w.guid}};
+    lost_.announced(w.participant_guid);  // found again, if it was lost
+    auto& list = device.announcers;
+    const auto it = std::find_if(list.begin(), list.end(), [&](const auto& a) { return a.first == w.guid; });
+    if (it != list.end()) list.erase(it);
+    else ++per_participant_[w.participant_guid];
+    list.emplace_back(w.guid, server);  // the latest announcer is shown
+  }
+  doc["server"] = std::move(server);
+  device.doc = doc;
+  if (auto ev = table_.upsert(id, std::move(doc)); ev && ev->type == EventType::added)
+    log::info(prefix() + "device " + id + " added (from " + (writer ? writer->identity.guid : "unknown writer") +
+              ")");
+}
+
+void DomainBook::stopping(const std::string& topic_root, const Writer* writer) {
+  const std::string id = device_id(options_.domain, topic_root);
+  auto it = devices_.find(id);
+  if (it == devices_.end()) return;
+  auto& list = it->second.announcers;
+  if (writer && std::any_of(list.begin(), list.end(), [&](const auto& a) { return a.first == writer->identity.guid; })) {
+    drop_announcer(id, writer->identity.guid, "its server is stopping");
+    return;
+  }
+  // From a writer that never announced it (or an unknown one): the device goes
+  // all the same, as realdds itself does with any 'stopping'.
+  for (const auto& [guid, server] : list)
+    if (auto n = per_participant_.find(participant_of(guid)); n != per_participant_.end() && --n->second == 0)
+      per_participant_.erase(n);
+  remove_device(id, "a server says it is stopping");
+}
+
+bool DomainBook::drop_announcer(const std::string& id, const std::string& writer_guid, const std::string& why) {
+  auto dev = devices_.find(id);
+  if (dev == devices_.end()) return true;
+  auto& list = dev->second.announcers;
+  const auto it = std::find_if(list.begin(), list.end(), [&](const auto& a) { return a.first == writer_guid; });
+  if (it == list.end()) return false;
+  if (auto n = per_participant_.find(participant_of(writer_guid)); n != per_participant_.end() && --n->second == 0)
+    per_participant_.erase(n);
+  const bool was_shown = std::next(it) == list.end();
+  list.erase(it);
+  if (list.empty()) {
+    remove_device(id, why);
+    return true;
+  }
+  if (was_shown) {  // another server still serves it: show that one
+    dev->second.doc["server"] = list.back().second;
+    log::info(prefix() + "device " + id + " now served by writer " + list.back().first + " (" + writer_guid +
+              " left: " + why + ")");
+    table_.upsert(id, dev->second.doc);
+  }
+  return false;
+}
+
+void DomainBook::remove_device(const std::string& id, const std::string& why) {
+  log::info(prefix() + "device " + id + " removed: " + why);
+  table_.remove(id);
+  devices_.erase(id);
+}
+
+void DomainBook::writer_left(Handle left, const std::set<Handle>& still_matched, Clock::time_point now) {
+  // While reconciling after a fresh reader, writers are still coming back, so
+  // only the one that left loses its devices; the sweep comes at the deadline.
+  if (!reconcile_at_) {
+    sweep(still_matched, nullptr, now);
+    return;
+  }
+  const auto it = writers_.find(left);
+  if (it == writers_.end()) return;
+  const std::string gone = it->second.identity.guid;
+  sweep(still_matched, &gone, now);
+}
+
+void DomainBook::sweep(const std::set<Handle>& still_matched, const std::string* only, Clock::time_point now) {
+  std::set<std::string> alive;
+  for (auto it = writers_.begin(); it != writers_.end();) {
+    if (!still_matched.count(it->first)) {
+      it = writers_.erase(it);
+    } else {
+      alive.insert(it->second.identity.guid);
+      ++it;
+    }
+  }
+  std::vector<std::pair<std::string, std::string>> gone;  // device id, writer GUID
+  for (const auto& [id, device] : devices_) {
+    if (device.announcers.empty() && !only) gone.emplace_back(id, std::string());  // its writer was never known
+    for (const auto& [writer, server] : device.announcers)
+      if (!alive.count(writer) && (!only || writer == *only)) gone.emplace_back(id, writer);
+  }
+  for (const auto& [id, writer] : gone) {
+    if (writer.empty()) {
+      remove_device(id, "its writer is gone");
+    } else if (drop_announcer(id, writer, "its writer " + writer + " is gone")) {
+      // A device gone with its writer, not by 'stopping': its server may be lost.
+      lost_.writer_lost(participant_of(writer), now);
+    }
+  }
+  // Forget retry counts of servers that have no writer left, or a long-lived
+  // daemon would keep one entry for every peer that ever came by.
+  std::set<std::string> with_writers;
+  for (const auto& [h, w] : writers_) with_writers.insert(w.identity.participant_guid);
+  std::erase_if(silent_retries_, [&](const auto& entry) { return !with_writers.count(entry.first); });
+}
+
+void DomainBook::reader_made(Clock::time_point now) {
+  writers_.clear();  // handles were per reader; matches come again for the new one
+  if (!devices_.empty()) reconcile_at_ = now + options_.reconcile_grace;
+}
+
+void DomainBook::participant_made() {
+  writers_.clear();
+  reconcile_at_.reset();  // the reader that follows begins it again
+  lost_.participant_rebuilt();
+}
+
+DomainBook::Due DomainBook::tick(Clock::time_point now, const std::set<Handle>& still_matched) {
+  Due due;
+  const auto verdict = lost_.check(now);
+  for (const auto& guid : verdict.newly_lost)
+    log::notice(prefix() + "server " + guid +
+                " was lost without saying 'stopping' (crashed, or behind a network cut); looking for it again");
+  for (const auto& guid : verdict.given_up) log::info(prefix() + "gave up looking for server " + guid);
+  if (verdict.refresh) {
+    log::notice(prefix() + "refreshing the DDS participant to find " + std::to_string(lost_.size()) +
+                " lost server(s) again; devices are kept");
+    due.refresh = true;
+    return due;
+  }
+  if (reconcile_at_ && now >= *reconcile_at_) {
+    reconcile_at_.reset();
+    sweep(still_matched, nullptr, now);
+  }
+  // Count, per server, the writers that matched a while ago and sent nothing.
+  std::map<std::string, int> silent;  // participant GUID -> such writers
+  for (const auto& [h, w] : writers_)
+    if (!w.sent && now - w.matched_at >= options_.silent_grace) ++silent[w.identity.participant_guid];
+  for (const auto& [p, count] : silent) {
+    int& retries = silent_retries_[p];
+    if (count < kIdleWritersPerServer + 1 || retries >= options_.silent_retries) continue;
+    ++retries;
+    log::info(prefix() + "server " + p + " has " + std::to_string(count - kIdleWritersPerServer) +
+              " device writer(s) that matched but sent no device-info; making the reader anew so it "
+              "broadcasts again (try " + std::to_string(retries) + ")");
+    due.make_reader_anew = true;
+  }
+  return due;
+}
+
+void DomainBook::forget_devices() {
+  for (const auto& [id, device] : devices_) table_.remove(id);
+  devices_.clear();
+  per_participant_.clear();
+}
+
+void DomainBook::reject(const std::string& reason, const std::string& detail, const std::string& sender) {
+  ++rejected_[reason];
+  std::uint64_t suppressed = 0;
+  if (g_reject_log.allow(std::to_string(options_.domain) + "/" + sender + "/" + reason, suppressed))
+    log::warning(prefix() + "dropped a device-info from " + sender + ": " + reason + " (" + detail + ")" +
+                 (suppressed ? "; " + std::to_string(suppressed) + " more like it suppressed" : ""));
+}
+
+void DomainBook::fill(DomainStatus& s) const {
+  s.devices = devices_.size();
+  s.accepted = accepted_;
+  s.stopping = stopping_;
+  s.rejected = rejected_;
+  s.lost_servers = lost_.size();
+}
+
+}  // namespace rsd::dds

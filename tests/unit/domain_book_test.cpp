@@ -1,0 +1,205 @@
+// DomainBook is a DDS domain's bookkeeping: which writers announce which
+// devices, caps, reconciliation after a new reader, silent writers, lost
+// servers. Driven here with made-up writers and times against a real (plain)
+// device table: no Cyclone, no network, no sleeping.
+#include "dds/domain_book.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+using namespace std::chrono_literals;
+using rsd::dds::BookOptions;
+using rsd::dds::DomainBook;
+using rsd::dds::WriterIdentity;
+
+namespace {
+
+const DomainBook::Clock::time_point t0{};
+
+WriterIdentity writer(int server, int n) {
+  char guid[40];
+  std::snprintf(guid, sizeof guid, "010f%04x.aaaabbbb.00000000.%08x", server, 0x100 + n);
+  return {guid, std::string(guid).substr(0, 27) + "000001c1", "server-" + std::to_string(server),
+          {"10.0.0." + std::to_string(server)}};
+}
+
+rsd::dds::Parsed info(const std::string& serial) {
+  return rsd::dds::DeviceInfo{{{"name", "Intel RealSense D455"}, {"serial", serial},
+                               {"topic-root", "realsense/D455_" + serial}},
+                              "realsense/D455_" + serial};
+}
+
+rsd::dds::Parsed stopping(const std::string& serial) { return rsd::dds::Stopping{"realsense/D455_" + serial}; }
+
+std::string id(const std::string& serial) { return "dds-7-realsense.D455_" + serial; }
+
+struct Book : ::testing::Test {
+  rsd::SharedTable table;
+  BookOptions options = [] {
+    BookOptions o;
+    o.domain = 7;
+    o.max_devices_per_participant = 3;
+    o.max_devices_per_domain = 5;
+    return o;
+  }();
+  DomainBook book{table, options};
+
+  std::string shown_server(const std::string& serial) {
+    const auto dev = table.find(id(serial));
+    return dev ? (*dev)["server"]["participant-name"].get<std::string>() : "(absent)";
+  }
+  rsd::DomainStatus status() {
+    rsd::DomainStatus s;
+    book.fill(s);
+    return s;
+  }
+};
+
+}  // namespace
+
+TEST_F(Book, AnnouncedDeviceCarriesItsServer) {
+  book.writer_matched(1, writer(1, 1), t0);
+  book.sample(1, info("100"));
+  const auto dev = table.find(id("100"));
+  ASSERT_TRUE(dev);
+  EXPECT_EQ((*dev)["source"], "dds");
+  EXPECT_EQ((*dev)["domain"], 7);
+  EXPECT_EQ((*dev)["recovery"], false);
+  EXPECT_EQ((*dev)["server"]["participant-name"], "server-1");
+  EXPECT_EQ((*dev)["server"]["writer-guid"], writer(1, 1).guid);
+  EXPECT_EQ((*dev)["server"]["addresses"], nlohmann::json::array({"10.0.0.1"}));
+  const auto generation = table.generation();
+  book.sample(1, info("100"));  // a re-announcement is not news
+  EXPECT_EQ(table.generation(), generation);
+  EXPECT_EQ(status().accepted, 2u);
+}
+
+TEST_F(Book, StoppingRemovesFromItsWriterOrFromAnyone) {
+  book.writer_matched(1, writer(1, 1), t0);
+  book.sample(1, info("100"));
+  book.sample(1, info("101"));
+  book.sample(1, stopping("100"));
+  EXPECT_FALSE(table.find(id("100")));
+  book.sample(99, stopping("101"));  // a writer the book does not know
+  EXPECT_FALSE(table.find(id("101")));
+  EXPECT_EQ(status().stopping, 2u);
+  EXPECT_EQ(status().devices, 0u);
+}
+
+TEST_F(Book, DeviceStaysWhileAnyWriterAnnouncesIt) {
+  book.writer_matched(1, writer(1, 1), t0);
+  book.writer_matched(2, writer(2, 1), t0);
+  book.sample(1, info("100"));
+  book.sample(2, info("100"));
+  EXPECT_EQ(shown_server("100"), "server-2");  // the latest announcer
+  book.writer_left(2, {1}, t0 + 1s);
+  EXPECT_EQ(shown_server("100"), "server-1");
+  book.writer_left(1, {}, t0 + 2s);
+  EXPECT_EQ(shown_server("100"), "(absent)");
+}
+
+TEST_F(Book, StoppingFromOneOfTwoServersKeepsTheDevice) {
+  book.writer_matched(1, writer(1, 1), t0);
+  book.writer_matched(2, writer(2, 1), t0);
+  book.sample(1, info("100"));
+  book.sample(2, info("100"));
+  book.sample(2, stopping("100"));
+  EXPECT_EQ(shown_server("100"), "server-1");
+}
+
+TEST_F(Book, CapsPerParticipantAndPerDomain) {
+  book.writer_matched(1, writer(1, 1), t0);
+  for (int n = 0; n < 10; ++n) book.sample(1, info(std::to_string(200 + n)));
+  EXPECT_EQ(status().devices, 3u);  // max_devices_per_participant
+  EXPECT_EQ(status().rejected.at("participant-device-limit"), 7u);
+  book.sample(1, info("200"));  // a device already known is never refused
+  EXPECT_EQ(status().rejected.at("participant-device-limit"), 7u);
+
+  book.writer_matched(2, writer(2, 1), t0);
+  for (int n = 0; n < 10; ++n) book.sample(2, info(std::to_string(300 + n)));
+  EXPECT_EQ(status().devices, 5u);  // max_devices_per_domain
+  EXPECT_EQ(status().rejected.at("domain-device-limit"), 8u);
+
+  // A participant's devices leaving frees its share of the cap.
+  book.writer_left(1, {2}, t0 + 1s);
+  book.sample(2, info("400"));
+  EXPECT_TRUE(table.find(id("400")));
+}
+
+TEST_F(Book, MalformedInputIsCountedByReason) {
+  book.writer_matched(1, writer(1, 1), t0);
+  book.sample(1, rsd::dds::Rejected{"not-json", "x"});
+  book.sample(1, rsd::dds::Rejected{"not-json", "y"});
+  EXPECT_EQ(status().rejected.at("not-json"), 2u);
+  EXPECT_EQ(status().devices, 0u);
+}
+
+TEST_F(Book, ANewReaderKeepsDevicesWhoseWritersComeBack) {
+  book.writer_matched(1, writer(1, 1), t0);
+  book.writer_matched(2, writer(2, 1), t0);
+  book.sample(1, info("100"));
+  book.sample(2, info("200"));
+  book.reader_made(t0 + 10s);  // handles are per reader: every writer matches anew
+  book.writer_matched(11, writer(1, 1), t0 + 10s);
+  book.writer_left(99, {11}, t0 + 11s);  // some writer leaving meanwhile drops nothing else
+  EXPECT_TRUE(table.find(id("200")));
+  EXPECT_EQ(book.tick(t0 + 13s, {11}).refresh, false);
+  EXPECT_TRUE(table.find(id("200")));  // before the deadline
+  book.tick(t0 + 14s, {11});           // reconcile_grace (4 s) after the reader
+  EXPECT_TRUE(table.find(id("100")));
+  EXPECT_FALSE(table.find(id("200")));
+}
+
+TEST_F(Book, SilentWritersMakeTheReaderAnewAFewTimes) {
+  // A server with one device: its device writer and its idle writer matched,
+  // and the broadcast was lost.
+  book.writer_matched(1, writer(1, 1), t0);
+  book.writer_matched(2, writer(1, 2), t0);
+  EXPECT_FALSE(book.tick(t0 + 2s, {1, 2}).make_reader_anew);
+  int retries = 0;
+  for (int round = 0; round < 10; ++round) {
+    const auto now = t0 + std::chrono::seconds(3 + 10 * round);
+    if (book.tick(now, {1, 2}).make_reader_anew) {
+      ++retries;
+      book.reader_made(now);
+      book.writer_matched(1, writer(1, 1), now - 3s);
+      book.writer_matched(2, writer(1, 2), now - 3s);
+    }
+  }
+  EXPECT_EQ(retries, 3);  // silent_retries: a quiet peer cannot loop us
+  // One writer alone (the idle one of a server without devices) is not silence.
+  DomainBook other(table, options);
+  other.writer_matched(1, writer(5, 1), t0);
+  EXPECT_FALSE(other.tick(t0 + 10s, {1}).make_reader_anew);
+}
+
+TEST_F(Book, ALostServerAsksForARefreshAndIsFoundAgain) {
+  book.participant_alive(writer(1, 1).participant_guid);
+  book.writer_matched(1, writer(1, 1), t0);
+  book.sample(1, info("100"));
+  book.participant_gone(writer(1, 1).participant_guid);  // its lease expired
+  book.writer_left(1, {}, t0);
+  EXPECT_FALSE(table.find(id("100")));
+  EXPECT_FALSE(book.tick(t0 + 200ms, {}).refresh);
+  EXPECT_TRUE(book.tick(t0 + 500ms, {}).refresh);
+  EXPECT_EQ(status().lost_servers, 1u);
+  book.participant_made();
+  book.reader_made(t0 + 3s);
+  book.writer_matched(1, writer(1, 1), t0 + 3s);
+  book.sample(1, info("100"));
+  EXPECT_EQ(status().lost_servers, 0u);
+  EXPECT_TRUE(table.find(id("100")));
+}
+
+TEST_F(Book, AServerDroppingOneDeviceIsNotLost) {
+  book.participant_alive(writer(1, 1).participant_guid);
+  book.writer_matched(1, writer(1, 1), t0);
+  book.writer_matched(2, writer(1, 2), t0);
+  book.sample(1, info("100"));
+  book.sample(2, info("101"));
+  book.writer_left(1, {2}, t0);  // the server deleted one device's writer
+  EXPECT_FALSE(table.find(id("100")));
+  for (auto t = 0ms; t < 60s; t += 250ms) EXPECT_FALSE(book.tick(t0 + t, {2}).refresh);
+  EXPECT_EQ(status().lost_servers, 0u);
+}
