@@ -87,9 +87,9 @@ bool is_valid_utf8(std::string_view s) {
   return true;
 }
 
-Parsed parse_device_info(std::int32_t format, std::span<const std::uint8_t> data) {
+std::variant<nlohmann::json, Rejected> parse_flexible(std::int32_t format, std::span<const std::uint8_t> data) {
   if (format == static_cast<std::int32_t>(DataFormat::custom))
-    return Rejected{"custom-format", "CUSTOM data format carries no device-info"};
+    return Rejected{"custom-format", "CUSTOM data format carries no JSON or CBOR document"};
   if (format != static_cast<std::int32_t>(DataFormat::json) &&
       format != static_cast<std::int32_t>(DataFormat::cbor))
     return Rejected{"unknown-format", "data_format " + std::to_string(format)};
@@ -127,7 +127,13 @@ Parsed parse_device_info(std::int32_t format, std::span<const std::uint8_t> data
     if (!ok) return Rejected{"bad-cbor", "CBOR does not decode"};
     if (!all_strings_utf8(doc)) return Rejected{"invalid-utf8", "CBOR text string is not UTF-8"};
   }
+  return doc;
+}
 
+Parsed parse_device_info(std::int32_t format, std::span<const std::uint8_t> data) {
+  auto parsed = parse_flexible(format, data);
+  if (auto* bad = std::get_if<Rejected>(&parsed)) return std::move(*bad);
+  json& doc = std::get<json>(parsed);
   if (!doc.is_object()) return Rejected{"not-object", std::string("top level is ") + doc.type_name()};
   if (!nonempty_string(doc, "topic-root"))
     return Rejected{"missing-topic-root", "no string topic-root"};

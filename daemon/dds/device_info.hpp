@@ -43,6 +43,11 @@ inline constexpr const char* kRejectReasons[] = {
 
 Parsed parse_device_info(std::int32_t format, std::span<const std::uint8_t> data);
 
+// The document in a `flexible` sample (JSON or CBOR), with the same bounds and
+// checks (size, depth, UTF-8) but no expectation of its shape: for the other
+// realdds topics (notification). The reject reasons are the first ones above.
+std::variant<nlohmann::json, Rejected> parse_flexible(std::int32_t format, std::span<const std::uint8_t> data);
+
 // True when `text` is well-formed UTF-8 (no overlongs, surrogates or code points
 // past U+10FFFF): what nlohmann needs to serialise it later without throwing.
 bool is_valid_utf8(std::string_view text);

@@ -239,6 +239,18 @@ void DomainBook::forget_devices() {
   per_participant_.clear();
 }
 
+std::optional<nlohmann::json> DomainBook::announcement(const std::string& topic_root) const {
+  const auto it = devices_.find(device_id(options_.domain, topic_root));
+  if (it == devices_.end()) return std::nullopt;
+  return it->second.doc;
+}
+
+std::set<std::string> DomainBook::topic_roots() const {
+  std::set<std::string> out;
+  for (const auto& [id, device] : devices_) out.insert(device.doc["topic-root"].get<std::string>());
+  return out;
+}
+
 void DomainBook::reject(const std::string& reason, const std::string& detail, const std::string& sender) {
   ++rejected_[reason];
   std::uint64_t suppressed = 0;

@@ -85,6 +85,9 @@ class DomainBook {
 
   // Removes this domain's devices from the table (leaving the domain for good).
   void forget_devices();
+  // The device with this topic-root as last announced (with its server), if any.
+  std::optional<nlohmann::json> announcement(const std::string& topic_root) const;
+  std::set<std::string> topic_roots() const;
   // devices, accepted, stopping, rejected, lost_servers.
   void fill(DomainStatus& status) const;
 

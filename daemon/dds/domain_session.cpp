@@ -63,7 +63,8 @@ DomainSession::DomainSession(SharedTable& table, SessionOptions options)
         BookOptions book = options_.book;
         book.domain = options_.domain;
         return book;
-      }()) {}
+      }()),
+      fetcher_(options_.domain, options_.describe_timeout) {}
 
 DomainSession::~DomainSession() { stop(); }
 
@@ -120,6 +121,7 @@ void DomainSession::start() {
     throw std::runtime_error(why);
   }
   joined_at_ = Clock::now();
+  fetcher_.set_participant(participant_);
   std::lock_guard lock(mutex_);
   participant_guid_ = guid_to_string(guid);
   state_ = "settling";
@@ -129,6 +131,7 @@ void DomainSession::start() {
 }
 
 void DomainSession::stop() {
+  fetcher_.set_participant(0);  // fetches end, their readers go before the participant
   delete_reader();
   if (domain_ > 0) dds_delete(domain_);  // takes the participant, topic and builtin reader with it
   else if (participant_ > 0) dds_delete(participant_);
@@ -213,11 +216,14 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
 
   const auto matched = matched_writers(reader_);
   DomainBook::Due due;
+  std::set<std::string> present;
   {
     std::lock_guard lock(mutex_);
     due = book_.tick(now, matched);
     if (due.refresh) ++refreshes_;
+    present = book_.topic_roots();
   }
+  fetcher_.tick(now, [&](const std::string& topic_root) { return present.count(topic_root) > 0; });
   if (due.refresh) {
     rebuild();  // the reader follows after the settle time
     return options_.settle;
@@ -350,6 +356,18 @@ void DomainSession::handle_matched(dds_entity_t reader, const dds_subscription_m
   book_.writer_left(status.last_publication_handle, matched, Clock::now());
 }
 
+std::optional<DescribeResult> DomainSession::describe(const std::string& topic_root, std::chrono::milliseconds wait) {
+  std::optional<nlohmann::json> announcement;
+  {
+    std::lock_guard lock(mutex_);
+    announcement = book_.announcement(topic_root);
+  }
+  if (!announcement) return std::nullopt;
+  // first-seen/last-seen are the table's, not part of it; what the server
+  // announced (and which server) decides whether a kept description still holds.
+  return fetcher_.describe(topic_root, *announcement, wait);
+}
+
 DomainStatus DomainSession::status() const {
   std::lock_guard lock(mutex_);
   DomainStatus s;
@@ -358,6 +376,7 @@ DomainStatus DomainSession::status() const {
   s.participant_guid = participant_guid_;
   s.error = error_;
   book_.fill(s);
+  for (const auto& [reason, n] : fetcher_.rejected()) s.rejected[reason] += n;
   s.rebuilds = rebuilds_;
   s.refreshes = refreshes_;
   s.complete = state_ == "failed" ||

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "dds/domain_book.hpp"
+#include "dds/description_fetcher.hpp"
 #include "dds/domain_status.hpp"
 #include "table/shared_table.hpp"
 
@@ -36,6 +37,9 @@ struct SessionOptions {
   // instance): deep enough for a server announcing max_devices_per_participant at
   // once, bounded so a flood is dropped by Cyclone instead of queued without end.
   int reader_history = 1024;
+  // Camera Discovery: one fetch of a device's description may take this long
+  // (the use case's limit).
+  std::chrono::milliseconds describe_timeout{30000};
   // realdds servers broadcast to a reader as soon as it matches, which takes a
   // few ms once discovery has settled: this long after the first reader exists,
   // the domain's first discovery counts as complete (DomainStatus::complete).
@@ -67,6 +71,11 @@ class DomainSession {
   // refresh). The main
   // loop calls it; returns how soon it wants to be called again.
   Clock::duration tick(Clock::time_point now);
+
+  // The description of this domain's device with `topic_root` (Camera
+  // Discovery), fetched from its server on demand; blocks up to `wait`. Any
+  // thread. nullopt: no such device on this domain.
+  std::optional<DescribeResult> describe(const std::string& topic_root, std::chrono::milliseconds wait);
 
   bool reading() const;  // the device-info reader exists (initial discovery done)
   int domain() const { return options_.domain; }
@@ -105,6 +114,7 @@ class DomainSession {
   std::string error_;
   std::string participant_guid_;
   DomainBook book_;
+  DescriptionFetcher fetcher_;  // its own lock: never taken while holding mutex_
   std::optional<Clock::time_point> first_reader_at_;  // kept across rebuilds
   std::uint64_t rebuilds_ = 0, refreshes_ = 0;
 };

@@ -1,0 +1,100 @@
+// Camera Discovery on demand: a device's description fetched from its realdds
+// server by subscribing to <topic-root>/notification, collecting the set, and
+// unsubscribing, so the daemon keeps no load on the camera. Concurrent requests
+// for one device share one fetch; a result is kept until the device's
+// announcement changes (a restarted server may bring other streams).
+#pragma once
+
+#include "dds/description.hpp"
+
+#include <dds/dds.h>
+#include <nlohmann/json.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace rsd::dds {
+
+struct DescribeResult {
+  enum class Outcome {
+    ok,           // `description` is the device's
+    timeout,      // the server sent no whole set in time
+    unavailable,  // the domain has no participant now (starting, rebuilding, leaving)
+  };
+  Outcome outcome = Outcome::unavailable;
+  nlohmann::json description;
+  std::string error;  // for the user, when not ok
+};
+
+class DescriptionFetcher {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  // `fetch_timeout`: how long one fetch may take before it is given up (the use
+  // case's 30 s); a caller may wait less.
+  DescriptionFetcher(int domain, std::chrono::milliseconds fetch_timeout);
+  ~DescriptionFetcher();
+  DescriptionFetcher(const DescriptionFetcher&) = delete;
+  DescriptionFetcher& operator=(const DescriptionFetcher&) = delete;
+
+  // Main thread: the participant fetches subscribe with; 0 while there is none.
+  // Before the participant is deleted, call with 0: fetches in flight end
+  // (unavailable) and their readers are deleted first.
+  void set_participant(dds_entity_t participant);
+
+  // Any thread (API workers): blocks until the description of `topic_root` is
+  // known, `wait` has passed, or the participant goes. `announcement` is the
+  // device as announced now: a description fetched for another one is stale.
+  DescribeResult describe(const std::string& topic_root, const nlohmann::json& announcement,
+                          std::chrono::milliseconds wait);
+
+  // Main thread: deletes the readers of finished or expired fetches, and drops
+  // kept descriptions of devices that are gone (`still_there` says which are not).
+  void tick(Clock::time_point now, const std::function<bool(const std::string& topic_root)>& still_there);
+
+  std::uint64_t fetches_started() const { return started_.load(); }
+  std::map<std::string, std::uint64_t> rejected() const;  // malformed notifications, by reason
+
+ private:
+  struct Fetch {
+    std::string topic_root;
+    nlohmann::json announcement;
+    DescriptionAssembler assembler;
+    Clock::time_point deadline;
+    dds_entity_t topic = 0, reader = 0;
+    bool done = false;  // complete, failed or expired: nothing more to wait for
+    DescribeResult result;
+    DescriptionFetcher* owner = nullptr;
+  };
+  struct Kept {
+    nlohmann::json announcement;
+    nlohmann::json description;
+  };
+
+  static void on_data(dds_entity_t reader, void* arg);
+  void take(Fetch& fetch, dds_entity_t reader);
+  // Makes the fetch's topic and reader; returns false when the participant is gone.
+  bool subscribe(Fetch& fetch, dds_entity_t participant);
+  void unsubscribe(Fetch& fetch);
+
+  const int domain_;
+  const std::chrono::milliseconds fetch_timeout_;
+  std::atomic<dds_entity_t> participant_{0};
+  std::atomic<std::uint64_t> started_{0};
+
+  mutable std::mutex mutex_;  // what follows; never held across a DDS create/delete
+  std::condition_variable changed_;
+  std::map<std::string, std::shared_ptr<Fetch>> fetches_;  // in flight, by topic-root
+  std::vector<std::shared_ptr<Fetch>> finished_;           // readers to delete (main thread)
+  std::map<std::string, Kept> kept_;                       // by topic-root
+  std::map<std::string, std::uint64_t> rejected_;
+};
+
+}  // namespace rsd::dds
