@@ -95,6 +95,7 @@ int main(int argc, char** argv) {
   session_options.cyclone_config = config.cyclonedds_config;
   session_options.book.max_devices_per_participant = config.max_devices_per_participant;
   session_options.book.max_devices_per_domain = config.max_devices_per_domain;
+  session_options.describe_timeout = std::chrono::seconds(config.describe_timeout_s);
   rsd::service::DomainSet domains(table, session_options);
   try {
     domains.start(config.domains);

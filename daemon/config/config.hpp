@@ -26,6 +26,9 @@ struct Config {
   // Caps against floods: a realdds server announces a handful of devices.
   std::size_t max_devices_per_participant = 128;
   std::size_t max_devices_per_domain = 1024;
+  // Camera Discovery: how long fetching one device's description may take
+  // (seconds; the use case's limit is 30).
+  int describe_timeout_s = 30;
   std::string config_file;        // where the file part came from ("" : none)
 };
 

@@ -197,6 +197,14 @@ void DescriptionFetcher::tick(Clock::time_point now,
     std::lock_guard lock(mutex_);
     for (auto it = fetches_.begin(); it != fetches_.end();) {
       Fetch& f = *it->second;
+      if (!still_there(f.topic_root)) {
+        f.done = true;
+        f.result = {DescribeResult::Outcome::gone, nullptr, "the device left while it was being described"};
+        finished_.push_back(it->second);
+        it = fetches_.erase(it);
+        expired = true;
+        continue;
+      }
       if (now < f.deadline) {
         ++it;
         continue;

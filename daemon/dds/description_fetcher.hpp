@@ -27,6 +27,7 @@ struct DescribeResult {
     ok,           // `description` is the device's
     timeout,      // the server sent no whole set in time
     unavailable,  // the domain has no participant now (starting, rebuilding, leaving)
+    gone,         // the device left while it was being described
   };
   Outcome outcome = Outcome::unavailable;
   nlohmann::json description;
@@ -55,8 +56,9 @@ class DescriptionFetcher {
   DescribeResult describe(const std::string& topic_root, const nlohmann::json& announcement,
                           std::chrono::milliseconds wait);
 
-  // Main thread: deletes the readers of finished or expired fetches, and drops
-  // kept descriptions of devices that are gone (`still_there` says which are not).
+  // Main thread: deletes the readers of finished or expired fetches, ends those
+  // of devices that are gone and drops their kept descriptions (`still_there`
+  // says which devices are still announced).
   void tick(Clock::time_point now, const std::function<bool(const std::string& topic_root)>& still_there);
 
   std::uint64_t fetches_started() const { return started_.load(); }

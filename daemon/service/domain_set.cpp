@@ -11,10 +11,10 @@ DomainSet::DomainSet(SharedTable& table, dds::SessionOptions base) : table_(tabl
 
 DomainSet::~DomainSet() { stop(); }
 
-std::unique_ptr<dds::DomainSession> DomainSet::make(int domain) const {
+std::shared_ptr<dds::DomainSession> DomainSet::make(int domain) const {
   dds::SessionOptions options = base_;
   options.domain = domain;
-  return std::make_unique<dds::DomainSession>(table_, options);
+  return std::make_shared<dds::DomainSession>(table_, options);
 }
 
 void DomainSet::start(const std::vector<int>& domains) {
@@ -32,7 +32,7 @@ DomainSet::Change DomainSet::apply(const std::vector<int>& domains) {
   const std::set<int> wanted(domains.begin(), domains.end());
   // Leave first: a domain dropped and another added in one reload never has
   // both participants alive at once.
-  std::vector<std::unique_ptr<dds::DomainSession>> leaving;
+  std::vector<std::shared_ptr<dds::DomainSession>> leaving;
   {
     std::lock_guard lock(mutex_);
     for (auto it = sessions_.begin(); it != sessions_.end();) {
@@ -102,6 +102,39 @@ std::vector<DomainStatus> DomainSet::status() const {
   std::vector<DomainStatus> out;
   for (const auto& [d, s] : sessions_) out.push_back(s->status());
   return out;
+}
+
+DomainSet::Described DomainSet::describe(const std::string& id, std::chrono::milliseconds wait) const {
+  using Outcome = Described::Outcome;
+  const auto device = table_.find(id);
+  if (!device) return {Outcome::not_found, nullptr, "no device with id '" + id + "'"};
+  const auto domain = device->find("domain");
+  const auto topic_root = device->find("topic-root");
+  if (domain == device->end() || !domain->is_number_integer() || topic_root == device->end() ||
+      !topic_root->is_string())
+    return {Outcome::not_network, nullptr,
+            "'" + id + "' is a USB camera: only network (realdds) cameras describe themselves without being opened"};
+  if (device->value("recovery", false))
+    return {Outcome::recovery, nullptr, "'" + id + "' runs its recovery firmware: it has no streams to describe"};
+  std::shared_ptr<dds::DomainSession> session;
+  {
+    std::lock_guard lock(mutex_);
+    if (auto it = sessions_.find(domain->get<int>()); it != sessions_.end()) session = it->second;
+  }
+  if (!session) return {Outcome::not_found, nullptr, "no device with id '" + id + "'"};
+  const auto result = session->describe(topic_root->get<std::string>(), wait);
+  if (!result) return {Outcome::not_found, nullptr, "no device with id '" + id + "'"};
+  switch (result->outcome) {
+    case dds::DescribeResult::Outcome::ok:
+      return {Outcome::ok, result->description, ""};
+    case dds::DescribeResult::Outcome::timeout:
+      return {Outcome::timeout, nullptr, result->error};
+    case dds::DescribeResult::Outcome::gone:
+      return {Outcome::not_found, nullptr, "'" + id + "' left while it was being described"};
+    case dds::DescribeResult::Outcome::unavailable:
+      break;
+  }
+  return {Outcome::unavailable, nullptr, result->error};
 }
 
 }  // namespace rsd::service

@@ -53,15 +53,28 @@ class DomainSet {
   // Any thread (API workers).
   std::vector<DomainStatus> status() const;
 
+  // Camera Discovery for the device `id` (an entry of the table, or a sighting
+  // merged into one): its description from its realdds server, waiting up to
+  // `wait`. Any thread; blocks. See dds::DomainSession::describe.
+  struct Described {
+    enum class Outcome { ok, not_found, not_network, recovery, timeout, unavailable };
+    Outcome outcome = Outcome::not_found;
+    nlohmann::json description;
+    std::string error;
+  };
+  Described describe(const std::string& id, std::chrono::milliseconds wait) const;
+
  private:
-  std::unique_ptr<dds::DomainSession> make(int domain) const;
+  std::shared_ptr<dds::DomainSession> make(int domain) const;
 
   SharedTable& table_;
   dds::SessionOptions base_;
   // Only the main thread inserts or erases; it takes the mutex to do so, and
   // other threads take it to read. The main thread reads without it.
   mutable std::mutex mutex_;
-  std::map<int, std::unique_ptr<dds::DomainSession>> sessions_;
+  // Shared: an API worker describing a device holds its session while it waits,
+  // so a reload that leaves the domain meanwhile cannot pull it from under it.
+  std::map<int, std::shared_ptr<dds::DomainSession>> sessions_;
 };
 
 }  // namespace rsd::service

@@ -143,6 +143,7 @@ void Service::reload() {
   if (next.max_devices_per_participant != config_.max_devices_per_participant)
     restart_only.push_back("max-devices-per-participant");
   if (next.max_devices_per_domain != config_.max_devices_per_domain) restart_only.push_back("max-devices-per-domain");
+  if (next.describe_timeout_s != config_.describe_timeout_s) restart_only.push_back("describe-timeout");
   if (!restart_only.empty())
     log::warning("reload: " + join(restart_only, ", ") + " changed; that takes effect on restart");
 

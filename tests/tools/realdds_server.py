@@ -6,7 +6,9 @@ daemon sees exactly what a networked RealSense camera sends. One participant,
 any number of devices. Commands, one JSON object per line on stdin; each is
 answered with one JSON line on stdout ({"ok": true} or {"ok": false, "error": ...}):
 
-  {"cmd": "add", "info": {...device-info...}}   new device_server, broadcasts info
+  {"cmd": "add", "info": {...device-info...}, "spec": {...}}
+                                                new device_server (streams etc. of `spec`,
+                                                see make_server), broadcasts info
   {"cmd": "broadcast", "info": {...}}           re-broadcast a changed device-info
   {"cmd": "disconnect", "topic-root": "..."}    broadcast_disconnect ('stopping')
   {"cmd": "remove", "topic-root": "..."}        destroy the device_server (writer goes)
@@ -21,12 +23,40 @@ import time
 import pyrealsense2.pyrealdds as dds
 
 
-def make_server(participant, info):
-    color = dds.color_stream_server("Color", "RGB Camera")
-    color.init_profiles([dds.video_stream_profile(30, dds.video_encoding.rgb, 640, 480)], 0)
-    color.init_options([dds.option.from_json(["Backlight Compensation", 0, 0, 1, 1, 0, "desc"])])
+DEFAULT_STREAMS = {"streams": [{"kind": "color", "name": "Color", "sensor": "RGB Camera",
+                                 "profiles": [[30, "rgb", 640, 480]], "default": 0,
+                                 "options": [["Backlight Compensation", 0, 0, 1, 1, 0, "desc"]]}]}
+
+STREAM_SERVERS = {"color": dds.color_stream_server, "depth": dds.depth_stream_server, "ir": dds.ir_stream_server,
+                  "motion": dds.motion_stream_server}
+
+
+def make_server(participant, info, spec=None):
+    """A device_server for `info` with the streams, options and extrinsics of `spec`
+    (what the daemon's Camera Discovery must report back):
+      {"streams": [{"kind": "color|depth|ir|motion", "name", "sensor",
+                    "profiles": [[fps, encoding, width, height]] (motion: [[fps]]),
+                    "default": index, "options": [option JSON]}],
+       "device-options": [option JSON], "extrinsics": [[from, to, [9 rotation], [3 translation]]]}"""
+    spec = spec or DEFAULT_STREAMS
+    streams = []
+    for st in spec["streams"]:
+        server = STREAM_SERVERS[st["kind"]](st["name"], st["sensor"])
+        if st["kind"] == "motion":
+            profiles = [dds.motion_stream_profile(p[0]) for p in st["profiles"]]
+        else:
+            profiles = [dds.video_stream_profile(p[0], getattr(dds.video_encoding, p[1]), p[2], p[3])
+                        for p in st["profiles"]]
+        server.init_profiles(profiles, st.get("default", 0))
+        server.init_options([dds.option.from_json(o) for o in st.get("options", [])])
+        streams.append(server)
+    extrinsics = {}
+    for frm, to, rotation, translation in spec.get("extrinsics", []):
+        e = dds.extrinsics()
+        e.rotation, e.translation = tuple(rotation), tuple(translation)
+        extrinsics[(frm, to)] = e
     server = dds.device_server(participant, info["topic-root"])
-    server.init([color], [], {})
+    server.init(streams, [dds.option.from_json(o) for o in spec.get("device-options", [])], extrinsics)
     server.broadcast(dds.message.device_info.from_json(info))
     return server
 
@@ -56,7 +86,7 @@ def main():
             msg = json.loads(line)
             cmd = msg["cmd"]
             if cmd == "add":
-                servers[msg["info"]["topic-root"]] = make_server(participant, msg["info"])
+                servers[msg["info"]["topic-root"]] = make_server(participant, msg["info"], msg.get("spec"))
             elif cmd == "broadcast":
                 servers[msg["info"]["topic-root"]].broadcast(dds.message.device_info.from_json(msg["info"]))
             elif cmd == "disconnect":
