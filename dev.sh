@@ -30,6 +30,8 @@ DEB_PACKAGES=(
   dh-python pybuild-plugin-pyproject python3-all python3-setuptools python3-wheel
   # the real-systemd test: a minimal Debian booted with systemd-nspawn
   mmdebstrap systemd-container
+  # bench/run (and its smoke test): load generators, the nginx anchor, whole-command timing
+  wrk nginx-light hyperfine
 )
 
 say() { printf '\n==> %s\n' "$*"; }

@@ -10,7 +10,8 @@
  *       opens -c event streams; prints {"connected": N} once every stream has its
  *       response headers (or the timeout passed), then one JSON line per event
  *       {"c": stream, "event": "...", "id": "...", "t": CLOCK_MONOTONIC seconds} taken
- *       when the event's closing blank line is read; exits when stdin closes.
+ *       when the event's closing blank line is read, and {"c": stream, "closed": true,
+ *       "was_connected": bool} when the server closes one; exits when stdin closes.
  *
  * Plain C, no dependencies: bench/CMakeLists.txt builds it; bench/run compiles it with
  * cc when the build tree has no bench/.
@@ -454,7 +455,9 @@ static int run_sse(int n, double timeout) {
         epoll_ctl(ep, EPOLL_CTL_DEL, c->fd, NULL);
         close(c->fd);
         c->fd = -1;
-        printf("{\"c\": %d, \"closed\": true}\n", i);
+        printf("{\"c\": %d, \"closed\": true, \"was_connected\": %s}\n", i, c->connected ? "true" : "false");
+        if (c->connected) connected--;
+        c->connected = 0;
         fflush(stdout);
         continue;
       }

@@ -1,0 +1,913 @@
+#!/usr/bin/env python3
+"""bench/run: every comparison of issue 10, side by side, in one run.
+
+    bench/run [--quick | --smoke] [--build DIR] [--out DIR]
+
+Starts its own rs-discoveryd instances (own DDS domains from the test suite's domain
+locks, own Unix sockets and TCP ports, so it runs beside the tests) with real realdds
+servers (tests/tools/realdds_server.py), and measures each against its anchor in the
+same run:
+
+  http          GET /v1/devices, N devices, 64 and 1 connections, over TCP (wrk) and over the
+                Unix socket (bench/rsd-load.c), against nginx serving the same bytes from a
+                file (TCP and Unix socket); repetitions interleaved, ratios paired per repetition
+  cli_cold      cold `rs-discover list` against /bin/true and curl (hyperfine)
+  client_library  in-process rsdiscovery::Client::list() of N devices
+  librealsense  pyrealsense2.context({"dds": ...}).query_devices(): the anchor for
+                "which cameras are there"
+  discovery     realdds broadcast() -> `added` event, against a bare Cyclone reader
+  removal       stopping -> `removed`, SIGKILL -> `removed` (lease), with the reader's floor
+  scale         1,000 devices from 10 participants over 4 domains: time until listed, RSS
+  fanout        100 SSE watchers: change -> last watcher
+  idle          CPU-seconds per minute with N devices, with no client and with the watchers
+
+Writes OUT/latest.json and OUT/latest.md (OUT: bench/results). --quick does the same in
+under two minutes; --smoke is a tiny run (under a minute) that CI uses so the harness does
+not rot: its numbers mean nothing. No speed is asserted anywhere: the table says which
+targets are met on this machine, this time.
+"""
+import argparse
+import datetime
+import http.client
+import json
+import os
+import queue
+import re
+import shutil
+import signal
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import traceback
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+sys.path.insert(0, os.path.join(ROOT, "tests"))
+
+import conftest  # noqa: E402  (the suite's daemon, realdds server and domain-lock helpers)
+
+MODES = {
+    # devices: in the main daemon (servers x per server); http_secs: per load run;
+    # reps: repetitions, interleaved; scale: (devices, participants, domains)
+    "full": dict(servers=4, per_server=25, http_reps=5, http_secs=5, rsd_load_tcp=True, cli_runs=200,
+                 lib_iters=5000, lib_reps=3, rs_reps=5, lat_reps=15, kill_reps=5, scale=(1000, 10, 4),
+                 watchers=100, changes=50, idle_secs=60, sse_connect_s=10),
+    "quick": dict(servers=4, per_server=25, http_reps=3, http_secs=1, rsd_load_tcp=False, cli_runs=50,
+                  lib_iters=500, lib_reps=2, rs_reps=1, lat_reps=5, kill_reps=2, scale=(1000, 10, 4),
+                  watchers=100, changes=16, idle_secs=6, sse_connect_s=4),
+    "smoke": dict(servers=2, per_server=5, http_reps=1, http_secs=1, rsd_load_tcp=False, cli_runs=5,
+                  lib_iters=50, lib_reps=1, rs_reps=1, lat_reps=1, kill_reps=1, scale=(20, 4, 2),
+                  watchers=10, changes=2, idle_secs=1, sse_connect_s=4),
+}
+SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout",
+            "idle"]
+
+
+class BenchError(Exception):
+    pass
+
+
+def log(msg):
+    print(f"[bench {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
+
+
+def wait_until(pred, timeout, what, interval=0.02):
+    """pred()'s first truthy value; BenchError at the deadline (a wait, never a fixed sleep)."""
+    deadline = time.monotonic() + timeout
+    last = None
+    while time.monotonic() < deadline:
+        last = pred()
+        if last:
+            return last
+        time.sleep(interval)
+    raise BenchError(f"timed out after {timeout}s waiting for {what} (last: {last!r})")
+
+
+def stats(values):
+    """median and spread of repetitions."""
+    v = sorted(x for x in values if x is not None)
+    if not v:
+        return {"n": 0}
+
+    def q(p):
+        return v[min(len(v) - 1, int(round(p * (len(v) - 1))))]
+    out = {"median": statistics.median(v), "min": v[0], "max": v[-1], "p10": q(0.10), "p90": q(0.90),
+           "n": len(v)}
+    if len(v) > 1:
+        out["stdev"] = statistics.stdev(v)
+    if len(v) >= 20:
+        out["p99"] = q(0.99)
+    return out
+
+
+def ratio(a, b):
+    return a / b if a is not None and b not in (None, 0) else None
+
+
+class Lines:
+    """A child process whose stdout is JSON lines, read on a thread, with timed waits."""
+
+    def __init__(self, args, **popen):
+        self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, **popen)
+        self.q = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self):
+        for line in self.proc.stdout:
+            if line.startswith("{"):
+                try:
+                    self.q.put(json.loads(line))
+                except ValueError:
+                    pass
+        self.q.put(None)
+
+    def wait(self, pred, timeout, what):
+        deadline = time.monotonic() + timeout
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise BenchError(f"timed out after {timeout}s waiting for {what}")
+            try:
+                item = self.q.get(timeout=left)
+            except queue.Empty:
+                raise BenchError(f"timed out after {timeout}s waiting for {what}") from None
+            if item is None:
+                raise BenchError(f"{self.proc.args[0]} ended while waiting for {what}")
+            if pred(item):
+                return item
+
+    def drain(self):
+        out = []
+        while True:
+            try:
+                item = self.q.get_nowait()
+            except queue.Empty:
+                return out
+            if item is not None:
+                out.append(item)
+
+    def close(self):
+        try:
+            self.proc.stdin.close()
+        except OSError:
+            pass
+        try:
+            self.proc.wait(5)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+
+
+def unix_get(sock_path, path, timeout=5.0):
+    status, _, body = conftest.request_once(conftest.UnixHTTPConnection(sock_path, timeout=timeout), path)
+    return status, body
+
+
+def rss_kb(pid):
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    return None
+
+
+def cpu_seconds(pid):
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    tck = os.sysconf("SC_CLK_TCK")
+    return (int(fields[11]) + int(fields[12])) / tck  # utime + stime (fields 14, 15)
+
+
+def device_info(n, prefix="9"):
+    serial = f"{prefix}{n:011d}"
+    return {"name": "Intel RealSense D455", "serial": serial, "product-line": "D400", "product-id": "0B5C",
+            "fw-version": "5.16.0.1", "topic-root": f"realsense/D455_{serial}"}
+
+
+class Bench:
+    def __init__(self, args):
+        self.args = args
+        self.mode = "smoke" if args.smoke else "quick" if args.quick else "full"
+        self.p = MODES[self.mode]
+        self.build = os.path.abspath(args.build)
+        conftest.DAEMON = os.path.join(self.build, "daemon", "rs-discoveryd")
+        self.tmp = tempfile.mkdtemp(prefix="rsd-bench-")
+        os.chmod(self.tmp, 0o755)
+        self.locks = conftest.DomainLocks()
+        self.cleanup = []
+        self.results = {}
+        self.python = sys.executable
+
+    # ---- processes ---------------------------------------------------------------------
+    def start_daemon(self, domains, name):
+        sock = os.path.join(self.tmp, f"{name}.sock")
+        port = conftest.free_port()
+        cfg = os.path.join(self.tmp, "empty-config.json")
+        with open(cfg, "w") as f:
+            f.write("{}")
+        args = []
+        for d in domains:
+            args += ["--domain", str(d)]
+        args += ["--config", cfg, "--socket", sock, "--http", f"127.0.0.1:{port}", "--no-usb", "--log-level",
+                 "warning"]
+        d = conftest.Daemon(args, self.tmp, sock, port)
+        self.cleanup.append(d.stop)
+
+        def ready():
+            if d.proc.poll() is not None:
+                raise BenchError(f"daemon exited with {d.proc.returncode}:\n{d.log()[-2000:]}")
+            try:
+                status, body = unix_get(sock, "/v1/domains", timeout=1)
+            except OSError:
+                return False
+            return status == 200 and all(x["state"] == "running" for x in json.loads(body)["domains"])
+        wait_until(ready, 20, f"daemon {name} ready")
+        return d
+
+    def start_servers(self, domain_of, devices_of, name):
+        """Starts realdds servers at once (one participant each); returns them once every
+        one has broadcast all its devices, with the monotonic time of its last broadcast."""
+        procs = []
+        for i, (domain, devices) in enumerate(zip(domain_of, devices_of)):
+            cmd = [self.python, os.path.join(ROOT, "tests", "tools", "realdds_server.py"), "--domain", str(domain),
+                   "--name", f"{name}-{i}"]
+            for info in devices:
+                cmd += ["--device", json.dumps(info)]
+            p = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+            procs.append(p)
+            self.cleanup.append(lambda p=p: (p.kill(), p.wait()))
+        servers = []
+        for p in procs:
+            s = conftest.RealddsServer.__new__(conftest.RealddsServer)
+            s.proc = p
+            s.hello = s._reply()
+            servers.append(s)
+        return servers
+
+    def count(self, d):
+        try:
+            status, body = unix_get(d.socket, "/healthz", timeout=2)
+            return json.loads(body).get("devices", 0) if status == 200 else 0
+        except (OSError, ValueError):
+            return 0
+
+    def tool(self, name, source, lang):
+        """A helper of bench/CMakeLists.txt from the build tree; built there when missing."""
+        path = os.path.join(self.build, "bench", name)
+        if os.path.exists(path) and os.path.getmtime(path) >= os.path.getmtime(os.path.join(HERE, source)):
+            return path  # built (the suite's ctest must not run a build in the tree it tests)
+        r = subprocess.run(["cmake", "--build", self.build, "--target", name], stdout=subprocess.PIPE,
+                           stderr=subprocess.STDOUT, text=True)
+        if r.returncode == 0 and os.path.exists(path):
+            return path
+        if lang == "c":  # no dependencies: compile it by hand
+            path = os.path.join(self.tmp, name)
+            subprocess.run(["cc", "-O2", "-o", path, os.path.join(HERE, source), "-lpthread"], check=True)
+            return path
+        raise BenchError(f"cannot build {name}: {r.stdout[-1500:]}")
+
+    # ---- sections ----------------------------------------------------------------------
+    def section(self, name, fn):
+        log(f"{name} ...")
+        t0 = time.monotonic()
+        try:
+            self.results[name] = fn()
+        except BaseException as e:  # noqa: BLE001  (pytest.fail's Failed is a BaseException)
+            if isinstance(e, KeyboardInterrupt):
+                raise
+            self.results[name] = {"error": f"{type(e).__name__}: {e}", "trace": traceback.format_exc()[-3000:]}
+            log(f"{name} FAILED: {e}")
+        self.results[name]["elapsed_s"] = round(time.monotonic() - t0, 2)
+        log(f"{name} done in {self.results[name]['elapsed_s']} s")
+
+    def run(self):
+        p = self.p
+        started = time.time()
+        self.load = self.tool("rsd-bench-load", "rsd-load.c", "c")
+        n = p["servers"] * p["per_server"]
+        try:
+            self.d_main = self.locks.take()
+            self.d_lat = self.locks.take()
+            self.d_scale = [self.locks.take() for _ in range(p["scale"][2])]
+            log(f"mode {self.mode}; domains: main {self.d_main}, latency {self.d_lat}, scale {self.d_scale}; "
+                f"tmp {self.tmp}")
+            self.main = self.start_daemon([self.d_main], "main")
+            infos = [device_info(i) for i in range(n)]
+            self.servers = self.start_servers([self.d_main] * p["servers"],
+                                              [infos[i::p["servers"]] for i in range(p["servers"])], "bench")
+            wait_until(lambda: self.count(self.main) >= n, 60, f"{n} devices listed")
+            self.devices = n
+            self.section("http", self.bench_http)
+            self.section("cli_cold", self.bench_cli)
+            self.section("client_library", self.bench_client_library)
+            self.section("librealsense", self.bench_librealsense)
+            self.section("idle", self.bench_idle)
+            self.section("fanout", self.bench_fanout)
+            self.section("discovery", self.bench_discovery_removal)
+            self.section("scale", self.bench_scale)
+        finally:
+            for fn in reversed(self.cleanup):
+                try:
+                    fn()
+                except Exception:  # noqa: BLE001
+                    pass
+            self.locks.release()
+        # discovery and removal are measured together; reported as two sections
+        disc = self.results.get("discovery", {})
+        if "removal" in disc:
+            self.results["removal"] = disc.pop("removal")
+            self.results["removal"]["elapsed_s"] = 0
+        for s in SECTIONS:
+            self.results.setdefault(s, {"error": "not run"})
+        return {"meta": self.meta(started), "sections": self.results, "table": self.table()}
+
+    def meta(self, started):
+        def git(*a):
+            r = subprocess.run(["git", "-C", ROOT] + list(a), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                               text=True)
+            return r.stdout.strip()
+        return {"mode": self.mode, "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+                "commit": git("rev-parse", "--short", "HEAD"),
+                "dirty_tree": bool(git("status", "--porcelain", "--untracked-files=no")),
+                "build": self.build, "build_type": self._build_type(), "nproc": os.cpu_count(),
+                "loadavg_end": list(os.getloadavg()), "seconds": round(time.time() - started, 1),
+                "devices": self.p["servers"] * self.p["per_server"],
+                "note": "shared 2-core machine (other engineers build and test on it): numbers are noisy; "
+                        "ratios are paired within this run"}
+
+    def _build_type(self):
+        try:
+            with open(os.path.join(self.build, "CMakeCache.txt")) as f:
+                m = re.search(r"^CMAKE_BUILD_TYPE:\w+=(.*)$", f.read(), re.M)
+                return m.group(1) if m else None
+        except OSError:
+            return None
+
+    # -- http ------------------------------------------------------------------------------
+    def start_nginx(self, body):
+        nginx = shutil.which("nginx") or "/usr/sbin/nginx"
+        if not os.path.exists(nginx):
+            raise BenchError("nginx is not installed (dev.sh installs nginx-light)")
+        base = os.path.join(self.tmp, "nginx")
+        os.makedirs(os.path.join(base, "www"), exist_ok=True)
+        for sub in ("body", "proxy", "fastcgi", "uwsgi", "scgi"):
+            os.makedirs(os.path.join(base, sub), exist_ok=True)
+        with open(os.path.join(base, "www", "devices.json"), "wb") as f:
+            f.write(body)
+        port = conftest.free_port()
+        sock = os.path.join(base, "nginx.sock")
+        user = "user root root;" if os.geteuid() == 0 else ""
+        conf = f"""
+{user}
+daemon off;
+worker_processes 2;
+pid {base}/nginx.pid;
+error_log {base}/error.log warn;
+events {{ worker_connections 1024; }}
+http {{
+  access_log off;
+  sendfile on;
+  tcp_nodelay on;
+  client_body_temp_path {base}/body; proxy_temp_path {base}/proxy; fastcgi_temp_path {base}/fastcgi;
+  uwsgi_temp_path {base}/uwsgi; scgi_temp_path {base}/scgi;
+  server {{
+    listen 127.0.0.1:{port};
+    listen unix:{sock};
+    root {base}/www;
+    location = /v1/devices {{ default_type application/json; try_files /devices.json =404; }}
+  }}
+}}
+"""
+        with open(os.path.join(base, "nginx.conf"), "w") as f:
+            f.write(conf)
+        proc = subprocess.Popen([nginx, "-p", base, "-e", os.path.join(base, "error.log"), "-c",
+                                 os.path.join(base, "nginx.conf")], stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE)
+
+        def stop():
+            proc.send_signal(signal.SIGQUIT)
+            try:
+                proc.wait(5)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        self.cleanup.append(stop)
+
+        def up():
+            if proc.poll() is not None:
+                raise BenchError(f"nginx exited: {proc.stderr.read().decode()[-1000:]}")
+            try:
+                s, b = unix_get(sock, "/v1/devices", timeout=1)
+                return s == 200 and b == body
+            except OSError:
+                return False
+        wait_until(up, 10, "nginx serving")
+        return port, sock, proc
+
+    def wrk(self, port, conns, secs):
+        threads = 2 if conns > 1 else 1
+        r = subprocess.run(["wrk", f"-t{threads}", f"-c{conns}", f"-d{max(1, int(round(secs)))}s", "--latency",
+                            f"http://127.0.0.1:{port}/v1/devices"], stdout=subprocess.PIPE,
+                           stderr=subprocess.STDOUT, text=True, timeout=secs + 30)
+        out = r.stdout
+
+        def ms(text):
+            m = re.match(r"([\d.]+)(us|ms|s)$", text)
+            v = float(m.group(1))
+            return v / 1000 if m.group(2) == "us" else v if m.group(2) == "ms" else v * 1000
+        rps = re.search(r"Requests/sec:\s+([\d.]+)", out)
+        p50 = re.search(r"^\s+50%\s+(\S+)", out, re.M)
+        p99 = re.search(r"^\s+99%\s+(\S+)", out, re.M)
+        if not (rps and p50 and p99):
+            raise BenchError(f"wrk output not understood:\n{out[-1500:]}")
+        errors = 0
+        for m in re.finditer(r"Non-2xx or 3xx responses: (\d+)", out):
+            errors += int(m.group(1))
+        m = re.search(r"Socket errors: connect (\d+), read (\d+), write (\d+), timeout (\d+)", out)
+        if m:
+            errors += sum(int(x) for x in m.groups())
+        return {"rps": float(rps.group(1)), "p50_ms": ms(p50.group(1)), "p99_ms": ms(p99.group(1)),
+                "errors": errors}
+
+    def rsd_load(self, target, conns, secs):
+        threads = 2 if conns > 1 else 1
+        r = subprocess.run([self.load, "http"] + target + ["-c", str(conns), "-t", str(threads), "-d", str(secs)],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=secs + 30)
+        if not r.stdout.strip():
+            raise BenchError(f"rsd-load failed: {r.stderr[-1000:]}")
+        return json.loads(r.stdout)
+
+    def bench_http(self):
+        p = self.p
+        status, body = unix_get(self.main.socket, "/v1/devices")
+        assert status == 200
+        doc = json.loads(body)
+        if len(doc["devices"]) != self.devices:
+            raise BenchError(f"{len(doc['devices'])} devices listed, not {self.devices}")
+        nport, nsock, _ = self.start_nginx(body)
+        # tool, transport -> how to reach the daemon / nginx
+        targets = [("wrk", "tcp")] + ([("rsd-load", "tcp")] if p["rsd_load_tcp"] else []) + [("rsd-load", "unix")]
+        runs = {}
+        for rep in range(p["http_reps"]):
+            for conns in (64, 1):
+                for tool, transport in targets:
+                    for server in ("rs-discoveryd", "nginx"):
+                        if tool == "wrk":
+                            port = self.main.port if server == "rs-discoveryd" else nport
+                            res = self.wrk(port, conns, p["http_secs"])
+                        else:
+                            if transport == "unix":
+                                target = ["--unix", self.main.socket if server == "rs-discoveryd" else nsock]
+                            else:
+                                port = self.main.port if server == "rs-discoveryd" else nport
+                                target = ["--tcp", f"127.0.0.1:{port}"]
+                            res = self.rsd_load(target, conns, p["http_secs"])
+                        runs.setdefault((conns, tool, transport, server), []).append(res)
+        rows = []
+        for (conns, tool, transport, server), rs in runs.items():
+            if server != "rs-discoveryd":
+                continue
+            ng = runs[(conns, tool, transport, "nginx")]
+            row = {"connections": conns, "tool": tool, "transport": transport}
+            for who, res in (("rs_discoveryd", rs), ("nginx", ng)):
+                row[who] = {k: stats([x[k] for x in res]) for k in ("rps", "p50_ms", "p99_ms")}
+                row[who]["errors"] = sum(x.get("errors", 0) for x in res)
+            # paired: each repetition's daemon run against the nginx run right beside it
+            row["ratio"] = {
+                "rps": stats([ratio(a["rps"], b["rps"]) for a, b in zip(rs, ng)]),
+                "p50": stats([ratio(a["p50_ms"], b["p50_ms"]) for a, b in zip(rs, ng)]),
+                "p99": stats([ratio(a["p99_ms"], b["p99_ms"]) for a, b in zip(rs, ng)]),
+            }
+            rows.append(row)
+        return {"devices": self.devices, "body_bytes": len(body), "seconds_per_run": p["http_secs"],
+                "repetitions": p["http_reps"], "anchor": "nginx (Debian) serving the same bytes from a file",
+                "rows": rows}
+
+    # -- cold CLI ---------------------------------------------------------------------------
+    def bench_cli(self):
+        cli = os.path.join(self.build, "client", "rs-discover")
+        out = os.path.join(self.tmp, "hyperfine.json")
+        cmds = {"rs-discover list (unix)": f"{cli} --endpoint unix:{self.main.socket} list",
+                "rs-discover list (http)": f"{cli} --endpoint http://127.0.0.1:{self.main.port} list",
+                "/bin/true": "/bin/true",
+                "curl --unix-socket /v1/devices": f"curl -sf -o /dev/null --unix-socket {self.main.socket} "
+                                                  "http://localhost/v1/devices"}
+        r = subprocess.run(["hyperfine", "--shell=none", "--warmup", "3", "--runs", str(self.p["cli_runs"]),
+                            "--style", "none", "--export-json", out] + list(cmds.values()),
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        if r.returncode != 0:
+            raise BenchError(f"hyperfine failed:\n{r.stdout[-1500:]}")
+        with open(out) as f:
+            data = json.load(f)
+        res = {}
+        for name, entry in zip(cmds, data["results"]):
+            res[name] = stats([t * 1000 for t in entry["times"]])
+        floor = res["/bin/true"]["median"]
+        return {"unit": "ms", "runs": self.p["cli_runs"], "commands": res,
+                "ratio_to_true": {k: v["median"] / floor for k, v in res.items()},
+                "anchor": "/bin/true (the process floor), measured in the same hyperfine run"}
+
+    # -- client library ---------------------------------------------------------------------
+    def bench_client_library(self):
+        prog = self.tool("rsd-bench-client-list", "client_list.cpp", "cxx")
+        out = {}
+        for name, ep in (("unix", f"unix:{self.main.socket}"), ("http", f"http://127.0.0.1:{self.main.port}")):
+            reps = []
+            for _ in range(self.p["lib_reps"]):
+                r = subprocess.run([prog, ep, str(self.p["lib_iters"])], stdout=subprocess.PIPE,
+                                   stderr=subprocess.PIPE, text=True, timeout=300)
+                if r.returncode != 0:
+                    raise BenchError(f"client list failed: {r.stderr[-1000:]}")
+                reps.append(json.loads(r.stdout))
+            if reps[0]["devices"] != self.devices:
+                raise BenchError(f"the library listed {reps[0]['devices']} devices, not {self.devices}")
+            out[name] = {"median_us": stats([x["median_us"] for x in reps]),
+                         "p99_us": stats([x["p99_us"] for x in reps]), "per_call_last_rep": reps[-1]}
+        return {"devices": self.devices, "iterations": self.p["lib_iters"], "repetitions": self.p["lib_reps"],
+                "endpoints": out}
+
+    # -- librealsense anchor ----------------------------------------------------------------
+    def bench_librealsense(self):
+        code = ("import json, time\n"
+                "t0 = time.monotonic()\n"
+                "import pyrealsense2 as rs\n"
+                "t1 = time.monotonic()\n"
+                f"ctx = rs.context({{'dds': {{'enabled': True, 'domain': {self.d_main}}}}})\n"
+                "devs = ctx.query_devices()\n"
+                "n = len(devs)\n"
+                "t2 = time.monotonic()\n"
+                "print(json.dumps({'import_s': t1 - t0, 'query_s': t2 - t1, 'count': n}), flush=True)\n")
+        reps = []
+        for _ in range(self.p["rs_reps"]):
+            t0 = time.monotonic()
+            r = subprocess.run([self.python, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               timeout=180)
+            total = time.monotonic() - t0
+            line = [x for x in r.stdout.splitlines() if x.startswith("{")]
+            if r.returncode != 0 or not line:
+                raise BenchError(f"pyrealsense2 failed ({r.returncode}): {r.stderr[-1500:]}")
+            rec = json.loads(line[-1])
+            rec["process_s"] = total
+            reps.append(rec)
+        cli = self.results.get("cli_cold", {}).get("commands", {}).get("rs-discover list (unix)", {}).get("median")
+        q = stats([x["query_s"] * 1000 for x in reps])
+        return {"what": "pyrealsense2.context({'dds': {'enabled': True, 'domain': D}}).query_devices()",
+                "devices_there": self.devices, "devices_found": [x["count"] for x in reps],
+                "query_ms": q, "import_ms": stats([x["import_s"] * 1000 for x in reps]),
+                "process_ms": stats([x["process_s"] * 1000 for x in reps]),
+                "rs_discover_list_ms": cli, "ratio_rs_discover_to_librealsense": ratio(cli, q.get("median"))}
+
+    # -- idle -----------------------------------------------------------------------------
+    def idle_cpu(self, pid, secs):
+        c0, t0 = cpu_seconds(pid), time.monotonic()
+        time.sleep(secs)  # the measurement window itself, not a wait for a condition
+        c1, t1 = cpu_seconds(pid), time.monotonic()
+        return (c1 - c0) / (t1 - t0) * 60
+
+    def bench_idle(self):
+        pid = self.main.proc.pid
+        return {"devices": self.devices, "window_s": self.p["idle_secs"],
+                "cpu_s_per_min_no_clients": self.idle_cpu(pid, self.p["idle_secs"]),
+                "rss_kb": rss_kb(pid),
+                "note": "utime+stime from /proc/PID/stat (clock ticks: 10 ms resolution); "
+                        "with watchers: see fanout.idle_cpu_s_per_min_with_watchers"}
+
+    # -- fan-out ----------------------------------------------------------------------------
+    def bench_fanout(self):
+        w = self.p["watchers"]
+        sse = Lines([self.load, "sse", "--unix", self.main.socket, "-c", str(w), "--timeout", str(self.p["sse_connect_s"])])
+        self.cleanup.append(sse.close)
+        hello = sse.wait(lambda x: "connected" in x, 20, "watchers connected")
+        connected = hello["connected"]
+        res = {"watchers": w, "connected": connected}
+        if connected == 0:
+            raise BenchError("no watcher connected")
+        sse.drain()
+        # A change: a device added to a running server, then its `stopping` (realdds
+        # broadcasts a device-info once per device server), alternately.
+        server = self.servers[0]
+        last, first, spread = [], [], []
+        info = None
+        closed_mid_run = 0
+        for k in range(self.p["changes"]):
+            if k % 2 == 0:
+                info = device_info(k, prefix="5")
+                reply = server.command(cmd="add", info=info)
+                kind = "added"
+            else:
+                reply = server.command(cmd="disconnect", **{"topic-root": info["topic-root"]})
+                kind = "removed"
+            got = {}
+            event_id = None
+            deadline = time.monotonic() + 10
+            while len(got) < connected:
+                ev = sse.wait(lambda x: x.get("event") == kind or x.get("closed"),
+                              max(0.01, deadline - time.monotonic()),
+                              f"change {k} at {connected} watchers ({len(got)} had it)")
+                if ev.get("closed"):
+                    if ev.get("was_connected"):
+                        connected -= 1
+                        closed_mid_run += 1
+                    continue
+                if event_id is None:
+                    event_id = ev["id"]
+                if ev["id"] == event_id:
+                    got[ev["c"]] = ev["t"]
+            ts = sorted(got.values())
+            last.append((ts[-1] - reply["t"]) * 1000)
+            first.append((ts[0] - reply["t"]) * 1000)
+            spread.append((ts[-1] - ts[0]) * 1000)
+        if k % 2 == 0:
+            server.command(cmd="disconnect", **{"topic-root": info["topic-root"]})
+            sse.wait(lambda x: x.get("event") == "removed", 10, "the last removal")
+        res.update({"changes": self.p["changes"], "unit": "ms", "closed_during_changes": closed_mid_run,
+                    "broadcast_to_first_watcher": stats(first), "broadcast_to_last_watcher": stats(last),
+                    "first_to_last_watcher": stats(spread),
+                    "note": "changes: a device added (origin: the realdds server's reply after broadcast()) or "
+                            "stopping (origin: its reply after broadcast_disconnect()), CLOCK_MONOTONIC; "
+                            "watchers: bench/rsd-load sse over the Unix socket, stamped on read"})
+        res["idle_cpu_s_per_min_with_watchers"] = self.idle_cpu(self.main.proc.pid, self.p["idle_secs"])
+        res["rss_kb_with_watchers"] = rss_kb(self.main.proc.pid)
+        sse.close()
+        return res
+
+    # -- discovery and removal --------------------------------------------------------------
+    def bench_discovery_removal(self):
+        d = self.start_daemon([self.d_lat], "latency")
+        floor = Lines([self.python, os.path.join(HERE, "dds_floor_reader.py"), "--domain", str(self.d_lat)])
+        self.cleanup.append(floor.close)
+        floor.wait(lambda x: x.get("ready"), 30, "the floor reader")
+        sse = Lines([self.load, "sse", "--unix", d.socket, "-c", "1", "--timeout", "10"])
+        self.cleanup.append(sse.close)
+        if sse.wait(lambda x: "connected" in x, 15, "event stream")["connected"] != 1:
+            raise BenchError("the event stream did not connect")
+        disc, disc_floor, stop, stop_floor, kill, kill_floor = [], [], [], [], [], []
+        server = conftest.RealddsServer(self.d_lat, [], name="bench-latency")
+        self.cleanup.append(server.kill)
+        for run in range(self.p["lat_reps"]):
+            info = device_info(run, prefix="8")
+            root = info["topic-root"]
+            reply = server.command(cmd="add", info=info)
+            ev = sse.wait(lambda x: x.get("event") in ("added", "changed", "removed"), 15, "added")
+            if ev["event"] != "added":
+                raise BenchError(f"expected added, got {ev}")
+            disc.append((ev["t"] - reply["t"]) * 1000)
+            fl = floor.wait(lambda x: x.get("kind") == "sample" and root in x["data"] and "stopping" not in x["data"],
+                            15, "the floor's sample")
+            disc_floor.append((fl["t"] - reply["t"]) * 1000)
+            sent = time.monotonic()
+            reply = server.command(cmd="disconnect", **{"topic-root": root})
+            ev = sse.wait(lambda x: x.get("event") in ("added", "changed", "removed"), 15, "removed")
+            if ev["event"] != "removed":
+                raise BenchError(f"expected removed, got {ev}")
+            stop.append((ev["t"] - sent) * 1000)
+            fl = floor.wait(lambda x: x.get("kind") == "sample" and root in x["data"] and "stopping" in x["data"],
+                            15, "the floor's stopping sample")
+            stop_floor.append((fl["t"] - sent) * 1000)
+        server.quit()
+        floor.drain()
+        for run in range(self.p["kill_reps"]):
+            info = device_info(run, prefix="7")
+            victim = conftest.RealddsServer(self.d_lat, [info], name=f"bench-victim-{run}")
+            self.cleanup.append(victim.kill)
+            ev = sse.wait(lambda x: x.get("event") in ("added", "changed", "removed"), 15, "added")
+            if ev["event"] != "added":
+                raise BenchError(f"expected added, got {ev}")
+            floor.wait(lambda x: x.get("kind") == "sample" and info["topic-root"] in x["data"], 15, "floor sample")
+            # the floor: the reader's matched writers drop when the lease expires
+            floor.drain()
+            t = time.monotonic()
+            victim.proc.send_signal(signal.SIGKILL)
+            ev = sse.wait(lambda x: x.get("event") in ("added", "changed", "removed"), 30, "removed after SIGKILL")
+            if ev["event"] != "removed":
+                raise BenchError(f"expected removed, got {ev}")
+            kill.append((ev["t"] - t) * 1000)
+            try:
+                fl = floor.wait(lambda x: x.get("kind") == "matched", 30, "the floor's unmatch")
+                kill_floor.append((fl["t"] - t) * 1000)
+            except BenchError:
+                pass
+            victim.proc.wait()
+        sse.close()
+        floor.close()
+        d.stop()
+        return {"unit": "ms", "repetitions": self.p["lat_reps"],
+                "origin": "the realdds server's reply right after broadcast() (CLOCK_MONOTONIC)",
+                "broadcast_to_added": stats(disc), "dds_floor": stats(disc_floor),
+                "over_floor": stats([a - b for a, b in zip(disc, disc_floor)]),
+                "floor_what": "bare Cyclone DDS reader (PyPI cyclonedds, Python listener) of realsense/device-info",
+                "removal": {"unit": "ms",
+                            "stopping_origin": "the harness writing the `disconnect` command to the realdds server "
+                                               "(its broadcast_disconnect() returns after delivery)",
+                            "stopping_to_removed": stats(stop), "stopping_floor": stats(stop_floor),
+                            "sigkill_repetitions": self.p["kill_reps"], "sigkill_to_removed": stats(kill),
+                            "sigkill_floor_unmatched": stats(kill_floor),
+                            "sigkill_over_floor": stats([a - b for a, b in zip(kill, kill_floor)]),
+                            "lease_note": "realdds servers' participant lease: the floor reader's unmatch is when "
+                                          "Cyclone itself gives the writer up"}}
+
+    # -- scale ------------------------------------------------------------------------------
+    def bench_scale(self):
+        total, participants, ndomains = self.p["scale"]
+        d = self.start_daemon(self.d_scale, "scale")
+        rss0 = rss_kb(d.proc.pid)
+        per = total // participants
+        domain_of = [self.d_scale[i % ndomains] for i in range(participants)]
+        devices_of = [[device_info(i * per + k, prefix="6") for k in range(per)] for i in range(participants)]
+        t_launch = time.monotonic()
+        servers = self.start_servers(domain_of, devices_of, "bench-scale")
+        t_announced = max(s.hello["t"] for s in servers)
+        t_listed = wait_until(lambda: self.count(d) >= total and time.monotonic(), 120, f"{total} devices listed",
+                              interval=0.01)
+        rss1 = rss_kb(d.proc.pid)
+        status, body = unix_get(d.socket, "/v1/devices")
+        doc = json.loads(body)
+        res = {"devices": total, "participants": participants, "domains": ndomains,
+               "listed_after_last_announced_s": t_listed - t_announced,
+               "listed_after_launch_s": t_listed - t_launch,
+               "servers_ready_after_launch_s": t_announced - t_launch,
+               "rss_kb_empty": rss0, "rss_kb": rss1, "bytes_per_device_rss": (rss1 - rss0) * 1024 / total,
+               "list_bytes": len(body), "list_bytes_per_device": len(body) / max(1, len(doc["devices"])),
+               "cpu_s_until_listed": cpu_seconds(d.proc.pid)}
+        for s in servers:
+            s.kill()
+        d.stop()
+        return res
+
+    # ---- the table --------------------------------------------------------------------------
+    def table(self):
+        R = self.results
+        rows = []
+
+        def f(v, nd=1):
+            return "–" if v is None else f"{v:,.{nd}f}"
+
+        def med(s, key="median"):
+            return (s or {}).get(key)
+
+        def spread(s, nd=1):
+            if not s or not s.get("n"):
+                return ""
+            return f" [{f(s['min'], nd)}–{f(s['max'], nd)}]" if s["n"] > 1 else ""
+
+        def verdict(ok):
+            return "–" if ok is None else ("met" if ok else "**missed**")
+
+        h = R.get("http", {})
+        for row in h.get("rows", []):
+            rsd, ng, ra = row["rs_discoveryd"], row["nginx"], row["ratio"]
+            label = (f"`GET /v1/devices`, {h.get('devices')} devices ({h.get('body_bytes', 0) // 1024} KB), "
+                     f"{row['connections']} conn, {row['transport']} ({row['tool']})")
+            ok = None
+            if row["connections"] == 64 and med(ra["rps"]) is not None:
+                ok = med(ra["rps"]) >= 0.8 and med(ra["p99"]) <= 2.0
+            rows.append({"comparison": label,
+                         "rs_discoveryd": f"{f(med(rsd['rps']), 0)} req/s{spread(rsd['rps'], 0)}, "
+                                          f"p50 {f(med(rsd['p50_ms']), 2)} ms, p99 {f(med(rsd['p99_ms']), 2)} ms",
+                         "anchor": f"nginx {f(med(ng['rps']), 0)} req/s{spread(ng['rps'], 0)}, "
+                                   f"p50 {f(med(ng['p50_ms']), 2)} ms, p99 {f(med(ng['p99_ms']), 2)} ms",
+                         "ratio": f"{f(med(ra['rps']), 2)}× req/s, {f(med(ra['p99']), 1)}× p99",
+                         "target": ("≥ 0.8× req/s, ≤ 2× p99: " + verdict(ok)) if row["connections"] == 64 else ""})
+        c = R.get("cli_cold", {})
+        if "commands" in c:
+            for name in ("rs-discover list (unix)", "rs-discover list (http)", "curl --unix-socket /v1/devices"):
+                s = c["commands"][name]
+                r = c["ratio_to_true"][name]
+                ok = r <= 2.5 if name.startswith("rs-discover list (unix)") else None
+                rows.append({"comparison": f"cold `{name}`",
+                             "rs_discoveryd" if name.startswith("rs") else "anchor":
+                                 f"{f(s['median'], 2)} ms median [p10 {f(s['p10'], 2)}, p90 {f(s['p90'], 2)}]",
+                             "anchor" if name.startswith("rs") else "rs_discoveryd": "",
+                             "ratio": f"{f(r, 1)}× `/bin/true` ({f(c['commands']['/bin/true']['median'], 2)} ms)",
+                             "target": ("≤ 2.5× /bin/true: " + verdict(ok)) if ok is not None else ""})
+        cl = R.get("client_library", {})
+        for name, e in cl.get("endpoints", {}).items():
+            m = med(e["median_us"])
+            ok = m <= 100 if name == "unix" else None
+            rows.append({"comparison": f"in-process client-library list, {cl['devices']} devices, {name}",
+                         "rs_discoveryd": f"{f(m, 0)} µs median{spread(e['median_us'], 0)}, "
+                                          f"p99 {f(med(e['p99_us']), 0)} µs",
+                         "anchor": "", "ratio": "",
+                         "target": ("≤ 100 µs median: " + verdict(ok)) if ok is not None else ""})
+        lr = R.get("librealsense", {})
+        if "query_ms" in lr:
+            rows.append({"comparison": "which cameras are there: librealsense `query_devices()` (DDS) vs "
+                                       "cold `rs-discover list`",
+                         "rs_discoveryd": f"{f(lr['rs_discover_list_ms'], 2)} ms",
+                         "anchor": f"pyrealsense2 {f(med(lr['query_ms']), 0)} ms{spread(lr['query_ms'], 0)}, "
+                                   f"found {lr['devices_found']} of {lr['devices_there']}",
+                         "ratio": f"{f(lr['ratio_rs_discover_to_librealsense'], 4)}×", "target": ""})
+        di = R.get("discovery", {})
+        if "broadcast_to_added" in di:
+            over = med(di["over_floor"])
+            rows.append({"comparison": "discovery: realdds `broadcast()` → `added` event",
+                         "rs_discoveryd": f"{f(med(di['broadcast_to_added']), 2)} ms{spread(di['broadcast_to_added'], 2)}",
+                         "anchor": f"bare Cyclone reader {f(med(di['dds_floor']), 2)} ms{spread(di['dds_floor'], 2)}",
+                         "ratio": f"+{f(over, 2)} ms over the floor",
+                         "target": "≤ floor + 2 ms: " + verdict(over is not None and over <= 2.0)})
+        rm = R.get("removal", {})
+        if "stopping_to_removed" in rm:
+            s = med(rm["stopping_to_removed"])
+            rows.append({"comparison": "removal: `stopping` → `removed`",
+                         "rs_discoveryd": f"{f(s, 2)} ms{spread(rm['stopping_to_removed'], 2)}",
+                         "anchor": f"bare reader gets `stopping` {f(med(rm['stopping_floor']), 2)} ms",
+                         "ratio": "", "target": "≤ 10 ms: " + verdict(s is not None and s <= 10)})
+            k, kf = med(rm["sigkill_to_removed"]), med(rm["sigkill_floor_unmatched"])
+            ok = None if k is None or kf is None else k <= kf + 500
+            rows.append({"comparison": "removal: SIGKILL of the server → `removed`",
+                         "rs_discoveryd": f"{f(k, 0)} ms{spread(rm['sigkill_to_removed'], 0)}",
+                         "anchor": f"bare reader's unmatch (the lease) {f(kf, 0)} ms",
+                         "ratio": f"+{f(med(rm['sigkill_over_floor']), 0)} ms",
+                         "target": "≤ lease + 0.5 s: " + verdict(ok)})
+        sc = R.get("scale", {})
+        if "listed_after_last_announced_s" in sc:
+            t = sc["listed_after_last_announced_s"]
+            rss = sc["rss_kb"] / 1024
+            rows.append({"comparison": f"scale: {sc['devices']} devices, {sc['participants']} participants, "
+                                       f"{sc['domains']} domains",
+                         "rs_discoveryd": f"all listed {f(t, 2)} s after the last was announced "
+                                          f"({f(sc['listed_after_launch_s'], 1)} s after launch); RSS {f(rss, 1)} MB; "
+                                          f"{f(sc['bytes_per_device_rss'], 0)} B/device (RSS), "
+                                          f"{f(sc['list_bytes_per_device'], 0)} B/device (JSON)",
+                         "anchor": "", "ratio": "",
+                         "target": f"≤ 5 s, RSS ≤ 64 MB: {verdict(t <= 5 and rss <= 64)}"})
+        fo = R.get("fanout", {})
+        if "broadcast_to_last_watcher" in fo:
+            last, spr = fo["broadcast_to_last_watcher"], fo["first_to_last_watcher"]
+            p99 = spr.get("p99", spr.get("max"))
+            rows.append({"comparison": f"fan-out: {fo['connected']} of {fo['watchers']} SSE watchers connected, "
+                                       "change → last watcher",
+                         "rs_discoveryd": f"broadcast → last watcher {f(med(last), 2)} ms median, "
+                                          f"max {f(last.get('max'), 2)} ms",
+                         "anchor": f"first watcher {f(med(fo['broadcast_to_first_watcher']), 2)} ms; first → last "
+                                   f"{f(med(spr), 2)} ms median, p99 {f(p99, 2)} ms (n={spr.get('n')})",
+                         "ratio": "",
+                         "target": "last watcher ≤ 20 ms p99 after the first: " + verdict(
+                             None if p99 is None else p99 <= 20 and fo["connected"] == fo["watchers"])})
+        idle = R.get("idle", {})
+        if "cpu_s_per_min_no_clients" in idle:
+            v = idle["cpu_s_per_min_no_clients"]
+            vw = fo.get("idle_cpu_s_per_min_with_watchers")
+            rows.append({"comparison": f"idle CPU, {idle['devices']} devices ({idle['window_s']} s window)",
+                         "rs_discoveryd": f"{f(v, 3)} CPU-s/min, no clients; {f(vw, 3)} CPU-s/min with "
+                                          f"{fo.get('connected', '–')} SSE watchers; RSS {f(idle['rss_kb'] / 1024, 1)} MB",
+                         "anchor": "", "ratio": "",
+                         "target": "≤ 0.3 CPU-s/min: " + verdict(v <= 0.3 and (vw is None or vw <= 0.3))})
+        for s in SECTIONS:
+            if "error" in R.get(s, {}):
+                rows.append({"comparison": f"{s}", "rs_discoveryd": "**failed**: " + R[s]["error"][:200],
+                             "anchor": "", "ratio": "", "target": ""})
+        return rows
+
+
+def markdown(result):
+    m = result["meta"]
+    out = [f"# bench/run {'--' + m['mode'] if m['mode'] != 'full' else ''}".rstrip(),
+           "",
+           f"{m['date']}, commit {m['commit']}{' (work tree with uncommitted changes)' if m['dirty_tree'] else ''}, "
+           f"{m['build_type']} build, {m['nproc']} cores, load average at the end {m['loadavg_end'][0]:.2f}, "
+           f"{m['seconds']} s. {m['note']}.",
+           "Medians over repetitions, [min–max] where there were several; ratios paired per repetition.",
+           "",
+           "| comparison | rs-discoveryd | anchor | ratio | target |",
+           "| --- | --- | --- | --- | --- |"]
+    for r in result["table"]:
+        out.append("| " + " | ".join(str(r.get(k, "")).replace("|", "\\|") for k in
+                                     ("comparison", "rs_discoveryd", "anchor", "ratio", "target")) + " |")
+    return "\n".join(out) + "\n"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    g = ap.add_mutually_exclusive_group()
+    g.add_argument("--quick", action="store_true", help="the same comparisons in under two minutes")
+    g.add_argument("--smoke", action="store_true", help="a tiny run for CI: the harness works, numbers mean nothing")
+    ap.add_argument("--build", default=os.environ.get("RSD_BUILD_DIR") or os.path.join(ROOT, "build"))
+    ap.add_argument("--out", default=os.path.join(HERE, "results"))
+    args = ap.parse_args()
+    bench = Bench(args)
+    try:
+        result = bench.run()
+    finally:
+        shutil.rmtree(bench.tmp, ignore_errors=True)
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "latest.json"), "w") as f:
+        json.dump(result, f, indent=1)
+        f.write("\n")
+    md = markdown(result)
+    with open(os.path.join(args.out, "latest.md"), "w") as f:
+        f.write(md)
+    print(md)
+    failed = [s for s in SECTIONS if "error" in result["sections"][s]]
+    if failed:
+        print(f"sections that failed: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,38 @@
+"""bench/run --smoke: the harness of bench/ runs end to end against the real daemon, real
+realdds servers, nginx, wrk and hyperfine, and writes latest.json (valid, every section,
+none failed) and latest.md. No number is checked against a target: the machine is shared."""
+import json
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout", "idle"]
+
+
+def test_bench_run_smoke(tmp_path):
+    env = dict(os.environ, RSD_BENCH_PYTHON=sys.executable)
+    r = subprocess.run([os.path.join(ROOT, "bench", "run"), "--smoke", "--out", str(tmp_path)], env=env,
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=200)
+    assert r.returncode == 0, f"bench/run --smoke exited {r.returncode}:\n{r.stderr[-6000:]}"
+    data = json.loads((tmp_path / "latest.json").read_text())
+    assert data["meta"]["mode"] == "smoke"
+    for name in SECTIONS:
+        section = data["sections"].get(name)
+        assert isinstance(section, dict), f"section {name} missing"
+        assert "error" not in section, f"section {name} failed: {section['error']}\n{section.get('trace', '')}"
+    s = data["sections"]
+    # each comparison carries its anchor, measured in the same run
+    assert {row["connections"] for row in s["http"]["rows"]} == {64, 1}
+    assert {row["transport"] for row in s["http"]["rows"]} == {"tcp", "unix"}
+    for row in s["http"]["rows"]:
+        assert row["nginx"]["rps"]["n"] >= 1 and row["ratio"]["rps"]["n"] >= 1
+    assert "/bin/true" in s["cli_cold"]["commands"]
+    assert s["discovery"]["dds_floor"]["n"] >= 1
+    assert s["removal"]["sigkill_to_removed"]["n"] >= 1
+    assert s["librealsense"]["query_ms"]["n"] >= 1
+    assert s["scale"]["devices"] > 0 and s["scale"]["rss_kb"] > 0
+    assert s["fanout"]["connected"] > 0
+    assert data["table"]
+    md = (tmp_path / "latest.md").read_text()
+    assert md.startswith("# bench/run") and "| comparison |" in md
