@@ -115,6 +115,9 @@ int main(int argc, char** argv) {
   rsd::api::StatusSources status;
   status.version = RSD_VERSION;
   status.domains = [&domains] { return domains.status(); };
+  status.describe = [&domains, wait = std::chrono::seconds(config.describe_timeout_s)](const std::string& id) {
+    return domains.describe(id, wait);
+  };
   if (usb) status.usb = [&usb] { return usb->status(); };
   if (usb)
     service.usb_watched([&usb] {

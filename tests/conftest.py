@@ -25,8 +25,9 @@ DAEMON = os.environ.get("RSD_DAEMON", os.path.join(os.environ.get("RSD_BUILD_DIR
 LOCK_DIR = os.path.join(tempfile.gettempdir(), "rsd-test-domains")
 
 
-def wait_for(predicate, timeout=10.0, interval=0.02, what="condition"):
-    """Returns predicate()'s first truthy value; fails the test at the deadline."""
+def wait_for(predicate, timeout=10.0, interval=0.02, what="condition", fail=True):
+    """Returns predicate()'s first truthy value; fails the test at the deadline
+    (or, with fail=False, returns the last falsy value)."""
     deadline = time.monotonic() + timeout
     last = None
     while time.monotonic() < deadline:
@@ -34,6 +35,8 @@ def wait_for(predicate, timeout=10.0, interval=0.02, what="condition"):
         if last:
             return last
         time.sleep(interval)
+    if not fail:
+        return last
     pytest.fail(f"timed out after {timeout}s waiting for {what} (last: {last!r})")
 
 
@@ -365,3 +368,48 @@ class EventStream:
         except OSError:
             pass
         self.conn.close()
+
+
+class CyclonePeer(JsonLinesProcess):
+    """tests/tools/cyclone_peer.py: PyPI's Cyclone DDS 11 on a flexible topic (see there)."""
+
+    def __init__(self, domain, role, octet, topic):
+        super().__init__([sys.executable, os.path.join(TESTS_DIR, "tools", "cyclone_peer.py"), "--domain",
+                          str(domain), "--octet", octet, "--topic", topic, role], stdin=subprocess.PIPE)
+
+    def next(self, timeout=30):
+        import queue
+
+        try:
+            line = self.lines.get(timeout=timeout)
+        except queue.Empty:
+            pytest.fail(f"the Cyclone peer said nothing within {timeout}s")
+        assert line is not None, "the Cyclone peer exited"
+        return line
+
+    def send(self, **msg):
+        self.proc.stdin.write(json.dumps(msg) + "\n")
+        self.proc.stdin.flush()
+        assert self.next() == {"ok": True}
+
+    def close(self):
+        if self.proc.poll() is None:
+            self.proc.stdin.close()
+            self.proc.wait(10)
+
+
+@pytest.fixture
+def cyclone_peer():
+    """cyclone_peer(domain, "writer"|"reader", octet="uint8", topic=device-info) -> CyclonePeer."""
+    peers = []
+
+    def start(domain, role, octet="uint8", topic="realsense/device-info"):
+        p = CyclonePeer(domain, role, octet, topic)
+        peers.append(p)
+        return p
+
+    yield start
+    for p in peers:
+        if p.proc.poll() is None:
+            p.proc.kill()
+            p.proc.wait()

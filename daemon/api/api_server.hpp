@@ -38,6 +38,9 @@ struct StatusSources {
   // Empty when USB is turned off (--no-usb / "usb": false).
   std::function<usb::UsbStatus()> usb;
   std::string version;
+  // Camera Discovery of one device by id (GET /v1/devices/{id}/description);
+  // blocks up to the daemon's describe timeout. Empty: no DDS, nothing to describe.
+  std::function<DeviceDescription(const std::string& id)> describe;
 };
 
 class ApiServer {

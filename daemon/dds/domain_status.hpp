@@ -2,6 +2,8 @@
 // A plain value: DomainSession fills it, the API serialises it.
 #pragma once
 
+#include <nlohmann/json.hpp>
+
 #include <cstdint>
 #include <map>
 #include <string>
@@ -24,6 +26,22 @@ struct DomainStatus {
   // every server already on the network to have announced its devices (or the
   // domain failed, so nothing more will come). Until then a device list is partial.
   bool complete = false;
+};
+
+// Camera Discovery's answer for one device (GET /v1/devices/{id}/description):
+// DomainSet gives it, the API serialises it.
+struct DeviceDescription {
+  enum class Outcome {
+    ok,           // `description` holds the streams, options, extrinsics, presets
+    not_found,    // no such device (or it left meanwhile)
+    not_network,  // a USB-only camera: nothing describes it without opening it
+    recovery,     // running its recovery firmware: no streams
+    timeout,      // its server sent no whole set in time
+    unavailable,  // the domain is starting or being made anew: ask again soon
+  };
+  Outcome outcome = Outcome::not_found;
+  nlohmann::json description;
+  std::string error;  // for the user, when not ok
 };
 
 }  // namespace rsd

@@ -104,8 +104,8 @@ std::vector<DomainStatus> DomainSet::status() const {
   return out;
 }
 
-DomainSet::Described DomainSet::describe(const std::string& id, std::chrono::milliseconds wait) const {
-  using Outcome = Described::Outcome;
+DeviceDescription DomainSet::describe(const std::string& id, std::chrono::milliseconds wait) const {
+  using Outcome = DeviceDescription::Outcome;
   const auto device = table_.find(id);
   if (!device) return {Outcome::not_found, nullptr, "no device with id '" + id + "'"};
   const auto domain = device->find("domain");

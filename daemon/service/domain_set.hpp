@@ -56,13 +56,7 @@ class DomainSet {
   // Camera Discovery for the device `id` (an entry of the table, or a sighting
   // merged into one): its description from its realdds server, waiting up to
   // `wait`. Any thread; blocks. See dds::DomainSession::describe.
-  struct Described {
-    enum class Outcome { ok, not_found, not_network, recovery, timeout, unavailable };
-    Outcome outcome = Outcome::not_found;
-    nlohmann::json description;
-    std::string error;
-  };
-  Described describe(const std::string& id, std::chrono::milliseconds wait) const;
+  DeviceDescription describe(const std::string& id, std::chrono::milliseconds wait) const;
 
  private:
   std::shared_ptr<dds::DomainSession> make(int domain) const;

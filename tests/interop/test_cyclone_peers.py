@@ -3,55 +3,10 @@ own libddsc, XTypes type information on every endpoint) writing and reading
 beside the daemon. One such peer used to crash the daemon inside libddsc while it
 parsed the peer's type object (issue 8): the daemon must keep running, take the
 peer's device-info by type name, and keep serving realdds as before."""
-import json
-import os
-import subprocess
-import sys
-
 import pytest
 
-from conftest import JsonLinesProcess, TESTS_DIR, device_info, wait_for
+from conftest import device_info, wait_for
 from test_realdds import dds_id
-
-PEER = os.path.join(TESTS_DIR, "tools", "cyclone_peer.py")
-
-
-class CyclonePeer(JsonLinesProcess):
-    def __init__(self, domain, role, octet):
-        super().__init__([sys.executable, PEER, "--domain", str(domain), "--octet", octet, role],
-                         stdin=subprocess.PIPE)
-
-    def next(self, timeout=30):
-        line = self.lines.get(timeout=timeout)
-        assert line is not None, "the Cyclone peer exited"
-        return line
-
-    def send(self, **msg):
-        self.proc.stdin.write(json.dumps(msg) + "\n")
-        self.proc.stdin.flush()
-        assert self.next() == {"ok": True}
-
-    def close(self):
-        if self.proc.poll() is None:
-            self.proc.stdin.close()
-            self.proc.wait(10)
-
-
-@pytest.fixture
-def cyclone_peer():
-    peers = []
-
-    def start(domain, role, octet="uint8"):
-        p = CyclonePeer(domain, role, octet)
-        peers.append(p)
-        return p
-
-    yield start
-    for p in peers:
-        if p.proc.poll() is None:
-            p.proc.kill()
-            p.proc.wait()
-
 
 # uint8 octets give a type id other than idlc's: the peer whose type object the
 # old daemon asked for, and crashed on; byte octets give idlc's own type id.

@@ -14,6 +14,8 @@ another one, so a reader that asks for type objects starts a type lookup.
   cyclone_peer.py --domain D writer   prints {"matched": true} once a reader on
       the topic is matched; then each stdin line {"json": {...}} or
       {"raw": "HEX", "format": N} is written as one sample, answered {"ok": true}
+  cyclone_peer.py --domain D --topic T writer   the same on another flexible topic
+      (T = <topic-root>/notification: a server's notifications, made up by the test)
   cyclone_peer.py --domain D reader   prints one JSON line per sample it receives
       ({"format": N, "data": "..."}); stays until stdin closes
 """
@@ -99,11 +101,13 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--domain", type=int, required=True)
     ap.add_argument("--octet", choices=["byte", "uint8"], default="uint8")
+    ap.add_argument("--topic", default="realsense/device-info",
+                    help="another flexible topic, e.g. <topic-root>/notification to play a server's side")
     ap.add_argument("role", choices=["writer", "reader"])
     args = ap.parse_args()
     flexible = flexible_type(byte if args.octet == "byte" else uint8)
     participant = DomainParticipant(args.domain)
-    topic = Topic(participant, "realsense/device-info", flexible, qos=QOS)
+    topic = Topic(participant, args.topic, flexible, qos=QOS)
     if args.role == "writer":
         return run_writer(participant, topic, flexible)
     return run_reader(participant, topic)

@@ -1,0 +1,208 @@
+"""Camera Discovery, complete: GET /v1/devices/{id}/description against real realdds
+servers (pyrealsense2's pyrealdds), and against made-up servers (PyPI cyclonedds
+writing the notification topic) for what a real one never does on purpose: never
+answering, never finishing a set, sending garbage."""
+import json
+import threading
+import time
+
+import pytest
+
+from conftest import device_info, wait_for
+from test_realdds import dds_id
+
+SPEC = {
+    "streams": [
+        {"kind": "color", "name": "Color", "sensor": "RGB Camera",
+         "profiles": [[30, "rgb", 1280, 720], [30, "yuyv", 640, 480], [6, "rgb", 1920, 1080]], "default": 1,
+         "options": [["Backlight Compensation", 0, 0, 1, 1, 0, "Enable / disable backlight compensation"],
+                     ["Brightness", 0, -64, 64, 1, 0, "UVC image brightness"]]},
+        {"kind": "depth", "name": "Depth", "sensor": "Stereo Module",
+         "profiles": [[30, "z16", 848, 480], [90, "z16", 424, 240]], "default": 0,
+         "options": [["Exposure", 8500, 1, 165000, 1, 8500, "Depth Exposure (usec)"]]},
+        {"kind": "ir", "name": "Infrared 1", "sensor": "Stereo Module",
+         "profiles": [[30, "y8", 848, 480]], "default": 0, "options": []},
+        {"kind": "motion", "name": "Motion", "sensor": "Motion Module", "profiles": [[200], [400]], "default": 0,
+         "options": []},
+    ],
+    "device-options": [["Laser Power", 150, 0, 360, 30, 150, "Manual laser power in mw"]],
+    "extrinsics": [["Depth", "Color", [1, 0, 0, 0, 1, 0, 0, 0, 1], [0.015, 0.0, 0.0]]],
+}
+# realdds' names on the wire for the encodings the spec uses (librealsense's table).
+WIRE_FORMAT = {"rgb": "rgb8", "yuyv": "yuv422_yuy2", "z16": "16UC1", "y8": "mono8"}
+TYPE = {"color": "color", "depth": "depth", "ir": "ir", "motion": "motion"}
+
+
+def describe(d, device_id, via="unix"):
+    status, headers, body = d.request(f"/v1/devices/{device_id}/description", via=via, timeout=60)
+    return status, headers, json.loads(body)
+
+
+def subscriptions(d, topic_root):
+    return d.log().count(f"subscribing to {topic_root}/notification")
+
+
+def test_description_matches_what_the_server_declared(free_domain, daemon, realdds_server):
+    cam = device_info(1)
+    server = realdds_server(free_domain, [])
+    server.command(cmd="add", info=cam, spec=SPEC)
+    d = daemon([free_domain])
+    cam_id = dds_id(free_domain, cam)
+    wait_for(lambda: d.device_ids() == [cam_id], what="the camera")
+    t = time.monotonic()
+    status, _, desc = describe(d, cam_id)
+    print(f"first description of a {len(SPEC['streams'])}-stream server: {(time.monotonic() - t) * 1000:.1f} ms")
+    assert status == 200, desc
+    assert [s["name"] for s in desc["streams"]] == [s["name"] for s in SPEC["streams"]]
+    for got, want in zip(desc["streams"], SPEC["streams"]):
+        assert got["type"] == TYPE[want["kind"]]
+        assert got["sensor-name"] == want["sensor"]
+        if want["kind"] == "motion":
+            assert got["profiles"] == [{"fps": p[0]} for p in want["profiles"]]
+        else:
+            assert got["profiles"] == [{"fps": p[0], "format": WIRE_FORMAT[p[1]], "width": p[2], "height": p[3]}
+                                       for p in want["profiles"]]
+        assert got["default-profile"] == got["profiles"][want["default"]]
+        assert got["metadata-enabled"] is False
+        assert [o["json"] for o in got["options"]] == want["options"]
+        for o, w in zip(got["options"], want["options"]):
+            assert (o["name"], o["value"], o["min"], o["max"], o["step"], o["default"], o["description"]) == tuple(w)
+    assert [o["json"] for o in desc["device-options"]] == SPEC["device-options"]
+    (ext,) = desc["extrinsics"]
+    assert (ext["from"], ext["to"]) == ("Depth", "Color")
+    assert ext["rotation"] == [1, 0, 0, 0, 1, 0, 0, 0, 1]
+    assert ext["translation"] == pytest.approx([0.015, 0.0, 0.0])
+    assert desc["presets"] == []
+    # Asked again (over HTTP this time), it is the kept one: no second subscription.
+    status, _, again = describe(d, cam_id, via="tcp")
+    assert status == 200 and again == desc
+    assert subscriptions(d, cam["topic-root"]) == 1
+    # A serial names the device too.
+    assert describe(d, cam["serial"])[2] == desc
+    server.quit()
+
+
+def test_two_clients_at_once_share_one_fetch(free_domain, daemon, realdds_server):
+    cam = device_info(2)
+    server = realdds_server(free_domain, [])
+    server.command(cmd="add", info=cam, spec=SPEC)
+    d = daemon([free_domain])
+    cam_id = dds_id(free_domain, cam)
+    wait_for(lambda: d.device_ids() == [cam_id], what="the camera")
+    results = []
+    threads = [threading.Thread(target=lambda: results.append(describe(d, cam_id))) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(60)
+    assert [r[0] for r in results] == [200] * 4
+    assert all(r[2] == results[0][2] for r in results)
+    assert subscriptions(d, cam["topic-root"]) == 1
+    server.quit()
+
+
+def test_device_back_with_other_streams_is_described_anew(free_domain, daemon, realdds_server):
+    cam = device_info(3)
+    server = realdds_server(free_domain, [])
+    server.command(cmd="add", info=cam, spec=SPEC)
+    d = daemon([free_domain])
+    cam_id = dds_id(free_domain, cam)
+    wait_for(lambda: d.device_ids() == [cam_id], what="the camera")
+    assert len(describe(d, cam_id)[2]["streams"]) == 4
+    server.command(cmd="remove", **{"topic-root": cam["topic-root"]})
+    wait_for(lambda: d.device_ids() == [], what="the camera gone")
+    depth_only = {"streams": [SPEC["streams"][1]]}
+    server.command(cmd="add", info=cam, spec=depth_only)
+    wait_for(lambda: d.device_ids() == [cam_id], what="the camera back")
+    status, _, desc = describe(d, cam_id)
+    assert status == 200 and [s["name"] for s in desc["streams"]] == ["Depth"], desc
+    server.quit()
+
+
+def test_servers_that_never_answer_or_never_finish(free_domain, daemon, cyclone_peer):
+    d = daemon([free_domain], extra=["--describe-timeout", "3"])
+    # A device announced by a writer with no server behind it: nobody answers.
+    silent, broken = device_info(4), device_info(5)
+    writer = cyclone_peer(free_domain, "writer")
+    assert writer.next() == {"matched": True}
+
+    def announced(*infos):
+        ids = d.device_ids()
+        if all(dds_id(free_domain, i) in ids for i in infos):
+            return True
+        for i in infos:
+            writer.send(json=i)
+        return False
+    wait_for(lambda: announced(silent, broken), timeout=20, interval=0.5, what="both announced")
+
+    # A made-up server: a header of 2 streams, one stream, interleaved noise, garbage.
+    notifier = cyclone_peer(free_domain, "writer", topic=broken["topic-root"] + "/notification")
+    t = time.monotonic()
+    status, headers, body = describe(d, dds_id(free_domain, silent))
+    took = time.monotonic() - t
+    assert status == 504 and "no complete description" in body["error"], body
+    assert 2.5 <= took <= 3 + 2, took
+    # The notifier matched the daemon's reader once the request subscribed.
+    result = {}
+    thread = threading.Thread(target=lambda: result.update(r=describe(d, dds_id(free_domain, broken))))
+    thread.start()
+    assert notifier.next() == {"matched": True}
+
+    def rejected():
+        return d.get_json("/v1/domains")["domains"][0]["rejected"]
+
+    # Samples a just-matched writer sends before the daemon's Cyclone knows it are
+    # lost for good (the late-joiner race): send garbage until one is counted.
+    def heard():
+        notifier.send(raw="7b6e6f74", format=0)  # "{not": not JSON
+        return wait_for(lambda: rejected().get("notification-not-json"), timeout=0.5, fail=False)
+    wait_for(heard, timeout=20, interval=0, what="the made-up server heard")
+    not_json = rejected()["notification-not-json"]
+    notifier.send(json={"id": "device-header", "n-streams": 2, "extrinsics": []})
+    notifier.send(json={"id": "set-option", "option-name": "Exposure", "value": 1})  # another kind: ignored
+    notifier.send(json={"id": "stream-header", "name": "Depth", "type": "depth", "sensor-name": "Stereo Module",
+                        "profiles": [[30, "16UC1", 848, 480]], "default-profile-index": 0,
+                        "metadata-enabled": False})
+    notifier.send(json={"id": "stream-options", "stream-name": "Depth", "options": []})
+    notifier.send(json={"id": "stream-options", "stream-name": "Nope", "options": []})  # unknown stream
+    thread.join(30)
+    status, _, body = result["r"]
+    assert status == 504, body
+    counts = rejected()
+    assert counts["notification-not-json"] == not_json and counts.get("notification-unknown-stream") == 1, counts
+    assert d.healthy()
+
+
+def test_device_leaving_mid_fetch(free_domain, daemon, cyclone_peer):
+    d = daemon([free_domain], extra=["--describe-timeout", "20"])
+    cam = device_info(6)
+    writer = cyclone_peer(free_domain, "writer")
+    assert writer.next() == {"matched": True}
+
+    def announced():
+        if dds_id(free_domain, cam) in d.device_ids():
+            return True
+        writer.send(json=cam)
+        return False
+    wait_for(announced, timeout=20, interval=0.5, what="the camera")
+    result = {}
+    thread = threading.Thread(target=lambda: result.update(r=describe(d, dds_id(free_domain, cam))))
+    thread.start()
+    wait_for(lambda: subscriptions(d, cam["topic-root"]) == 1, what="the fetch under way")
+    t = time.monotonic()
+    writer.close()  # its writer goes: the device leaves the table
+    thread.join(30)
+    status, _, body = result["r"]
+    assert status == 404 and "left" in body["error"], body
+    assert time.monotonic() - t < 10, "answered when the device left, not at the timeout"
+
+
+def test_usb_and_recovery_devices_are_not_described(free_domain, daemon, realdds_server):
+    rec = device_info(7, recovery=True)
+    realdds_server(free_domain, [rec])
+    d = daemon([free_domain])
+    wait_for(lambda: d.device_ids() == [dds_id(free_domain, rec)], what="the camera in recovery")
+    status, _, body = describe(d, dds_id(free_domain, rec))
+    assert status == 409 and "recovery" in body["error"], body
+    status, _, body = describe(d, "no-such-device")
+    assert status == 404 and body["status"] == 404
