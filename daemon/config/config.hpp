@@ -29,6 +29,9 @@ struct Config {
   // Camera Discovery: how long fetching one device's description may take
   // (seconds; the use case's limit is 30).
   int describe_timeout_s = 30;
+  // Describe the devices of these domains as they appear (all: every domain).
+  bool describe_eagerly_all = false;
+  std::vector<int> describe_eagerly;
   std::string config_file;        // where the file part came from ("" : none)
 };
 

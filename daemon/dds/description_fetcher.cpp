@@ -87,53 +87,72 @@ void DescriptionFetcher::unsubscribe(Fetch& fetch) {
   if (topic > 0) dds_delete(topic);
 }
 
-DescribeResult DescriptionFetcher::describe(const std::string& topic_root, const nlohmann::json& announcement,
-                                            std::chrono::milliseconds wait) {
-  const auto until = Clock::now() + wait;
+std::shared_ptr<DescriptionFetcher::Fetch> DescriptionFetcher::begin(const std::string& topic_root,
+                                                                     const nlohmann::json& announcement,
+                                                                     DescribeResult& answer) {
   const dds_entity_t participant = participant_.load();
   std::shared_ptr<Fetch> fetch;
-  bool first = false;
   {
     std::lock_guard lock(mutex_);
     if (auto kept = kept_.find(topic_root); kept != kept_.end()) {
-      if (kept->second.announcement == announcement)
-        return {DescribeResult::Outcome::ok, kept->second.description, ""};
+      if (kept->second.announcement == announcement) {
+        answer = {DescribeResult::Outcome::ok, kept->second.description, ""};
+        return nullptr;
+      }
       kept_.erase(kept);  // announced anew since: its streams may differ
     }
-    if (participant == 0)
-      return {DescribeResult::Outcome::unavailable, nullptr,
-              "the domain has no DDS participant now (starting or being made anew); ask again in a few seconds"};
-    auto& slot = fetches_[topic_root];
-    if (!slot) {
-      slot = std::make_shared<Fetch>();
-      slot->topic_root = topic_root;
-      slot->announcement = announcement;
-      slot->deadline = Clock::now() + fetch_timeout_;
-      slot->owner = this;
-      first = true;
+    if (participant == 0) {
+      answer = {DescribeResult::Outcome::unavailable, nullptr,
+                "the domain has no DDS participant now (starting or being made anew); ask again in a few seconds"};
+      return nullptr;
     }
+    auto& slot = fetches_[topic_root];
+    if (slot) return slot;  // under way: share it
+    slot = std::make_shared<Fetch>();
+    slot->topic_root = topic_root;
+    slot->announcement = announcement;
+    slot->deadline = Clock::now() + fetch_timeout_;
+    slot->owner = this;
     fetch = slot;
   }
-  if (first) {
-    ++started_;
-    log::debug("domain " + std::to_string(domain_) + ": subscribing to " + topic_root + "/notification");
-    if (!subscribe(*fetch, participant)) {
-      std::lock_guard lock(mutex_);
-      if (!fetch->done) {
-        fetch->done = true;
-        fetch->result = {DescribeResult::Outcome::unavailable, nullptr,
-                         "cannot subscribe to " + topic_root + "/notification"};
-        if (auto it = fetches_.find(topic_root); it != fetches_.end() && it->second == fetch) fetches_.erase(it);
-      }
-      changed_.notify_all();
+  ++started_;
+  log::debug("domain " + std::to_string(domain_) + ": subscribing to " + topic_root + "/notification");
+  if (!subscribe(*fetch, participant)) {
+    std::lock_guard lock(mutex_);
+    if (!fetch->done) {
+      fetch->done = true;
+      fetch->result = {DescribeResult::Outcome::unavailable, nullptr,
+                       "cannot subscribe to " + topic_root + "/notification"};
+      if (auto it = fetches_.find(topic_root); it != fetches_.end() && it->second == fetch) fetches_.erase(it);
     }
+    changed_.notify_all();
   }
+  return fetch;
+}
+
+DescribeResult DescriptionFetcher::describe(const std::string& topic_root, const nlohmann::json& announcement,
+                                            std::chrono::milliseconds wait) {
+  const auto until = Clock::now() + wait;
+  DescribeResult answer;
+  const auto fetch = begin(topic_root, announcement, answer);
+  if (!fetch) return answer;
   std::unique_lock lock(mutex_);
   changed_.wait_until(lock, std::min(until, fetch->deadline), [&] { return fetch->done; });
   if (fetch->done) return fetch->result;
   return {DescribeResult::Outcome::timeout, nullptr,
           "the camera's server sent no complete description within " +
               std::to_string(std::chrono::duration_cast<std::chrono::seconds>(wait).count()) + " s"};
+}
+
+void DescriptionFetcher::prefetch(const std::string& topic_root, const nlohmann::json& announcement) {
+  {
+    std::lock_guard lock(mutex_);
+    if (auto tried = prefetched_.find(topic_root); tried != prefetched_.end() && tried->second == announcement)
+      return;
+    prefetched_[topic_root] = announcement;
+  }
+  DescribeResult answer;
+  begin(topic_root, announcement, answer);
 }
 
 void DescriptionFetcher::on_data(dds_entity_t reader, void* arg) {
@@ -221,6 +240,7 @@ void DescriptionFetcher::tick(Clock::time_point now,
     }
     ending.swap(finished_);
     std::erase_if(kept_, [&](const auto& entry) { return !still_there(entry.first); });
+    std::erase_if(prefetched_, [&](const auto& entry) { return !still_there(entry.first); });
   }
   if (expired) changed_.notify_all();
   for (auto& fetch : ending) unsubscribe(*fetch);

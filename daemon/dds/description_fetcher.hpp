@@ -56,6 +56,11 @@ class DescriptionFetcher {
   DescribeResult describe(const std::string& topic_root, const nlohmann::json& announcement,
                           std::chrono::milliseconds wait);
 
+  // Starts fetching, without waiting, unless the description is kept, a fetch is
+  // under way, or one was tried for this very announcement already (a server
+  // that does not answer is asked once per announcement, not every tick).
+  void prefetch(const std::string& topic_root, const nlohmann::json& announcement);
+
   // Main thread: deletes the readers of finished or expired fetches, ends those
   // of devices that are gone and drops their kept descriptions (`still_there`
   // says which devices are still announced).
@@ -80,6 +85,10 @@ class DescriptionFetcher {
     nlohmann::json description;
   };
 
+  // Starts or joins the fetch of `topic_root`; nullptr when the answer is at hand
+  // already (then in `answer`).
+  std::shared_ptr<Fetch> begin(const std::string& topic_root, const nlohmann::json& announcement,
+                               DescribeResult& answer);
   static void on_data(dds_entity_t reader, void* arg);
   void take(Fetch& fetch, dds_entity_t reader);
   // Makes the fetch's topic and reader; returns false when the participant is gone.
@@ -96,6 +105,7 @@ class DescriptionFetcher {
   std::map<std::string, std::shared_ptr<Fetch>> fetches_;  // in flight, by topic-root
   std::vector<std::shared_ptr<Fetch>> finished_;           // readers to delete (main thread)
   std::map<std::string, Kept> kept_;                       // by topic-root
+  std::map<std::string, nlohmann::json> prefetched_;       // topic-root -> announcement tried
   std::map<std::string, std::uint64_t> rejected_;
 };
 

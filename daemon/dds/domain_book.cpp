@@ -245,9 +245,9 @@ std::optional<nlohmann::json> DomainBook::announcement(const std::string& topic_
   return it->second.doc;
 }
 
-std::set<std::string> DomainBook::topic_roots() const {
-  std::set<std::string> out;
-  for (const auto& [id, device] : devices_) out.insert(device.doc["topic-root"].get<std::string>());
+std::map<std::string, nlohmann::json> DomainBook::announcements() const {
+  std::map<std::string, nlohmann::json> out;
+  for (const auto& [id, device] : devices_) out.emplace(device.doc["topic-root"].get<std::string>(), device.doc);
   return out;
 }
 

@@ -87,7 +87,8 @@ class DomainBook {
   void forget_devices();
   // The device with this topic-root as last announced (with its server), if any.
   std::optional<nlohmann::json> announcement(const std::string& topic_root) const;
-  std::set<std::string> topic_roots() const;
+  // topic-root -> the device as last announced, for every device.
+  std::map<std::string, nlohmann::json> announcements() const;
   // devices, accepted, stopping, rejected, lost_servers.
   void fill(DomainStatus& status) const;
 

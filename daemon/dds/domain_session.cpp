@@ -216,14 +216,17 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
 
   const auto matched = matched_writers(reader_);
   DomainBook::Due due;
-  std::set<std::string> present;
+  std::map<std::string, nlohmann::json> present;  // topic-root -> announcement
   {
     std::lock_guard lock(mutex_);
     due = book_.tick(now, matched);
     if (due.refresh) ++refreshes_;
-    present = book_.topic_roots();
+    present = book_.announcements();
   }
   fetcher_.tick(now, [&](const std::string& topic_root) { return present.count(topic_root) > 0; });
+  if (options_.describe_eagerly && !due.refresh)
+    for (const auto& [topic_root, announcement] : present)
+      if (!announcement.value("recovery", false)) fetcher_.prefetch(topic_root, announcement);
   if (due.refresh) {
     rebuild();  // the reader follows after the settle time
     return options_.settle;

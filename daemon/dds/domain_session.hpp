@@ -40,6 +40,11 @@ struct SessionOptions {
   // Camera Discovery: one fetch of a device's description may take this long
   // (the use case's limit).
   std::chrono::milliseconds describe_timeout{30000};
+  // Describe every device of the domain as it appears, not only when asked:
+  // for every domain, or for those listed (DomainSet sets `describe_eagerly`
+  // per session from the list).
+  bool describe_eagerly = false;
+  std::set<int> describe_eagerly_in;
   // realdds servers broadcast to a reader as soon as it matches, which takes a
   // few ms once discovery has settled: this long after the first reader exists,
   // the domain's first discovery counts as complete (DomainStatus::complete).

@@ -14,6 +14,7 @@ DomainSet::~DomainSet() { stop(); }
 std::shared_ptr<dds::DomainSession> DomainSet::make(int domain) const {
   dds::SessionOptions options = base_;
   options.domain = domain;
+  options.describe_eagerly = options.describe_eagerly || options.describe_eagerly_in.count(domain) > 0;
   return std::make_shared<dds::DomainSession>(table_, options);
 }
 

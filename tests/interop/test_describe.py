@@ -206,3 +206,18 @@ def test_usb_and_recovery_devices_are_not_described(free_domain, daemon, realdds
     assert status == 409 and "recovery" in body["error"], body
     status, _, body = describe(d, "no-such-device")
     assert status == 404 and body["status"] == 404
+
+
+def test_described_eagerly_when_configured(free_domain, daemon, realdds_server):
+    cam = device_info(8)
+    server = realdds_server(free_domain, [])
+    server.command(cmd="add", info=cam, spec=SPEC)
+    d = daemon([free_domain], extra=["--describe-eagerly", str(free_domain)])
+    cam_id = dds_id(free_domain, cam)
+    wait_for(lambda: d.device_ids() == [cam_id], what="the camera")
+    # Described without anyone asking; asking then answers from what is kept.
+    wait_for(lambda: f"described {cam['topic-root']}" in d.log(), what="the camera described by itself")
+    status, _, desc = describe(d, cam_id)
+    assert status == 200 and len(desc["streams"]) == 4
+    assert subscriptions(d, cam["topic-root"]) == 1
+    server.quit()
