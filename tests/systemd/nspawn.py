@@ -212,7 +212,7 @@ def _child_pids(pid):
 class Container:
     """A rootfs tarball unpacked into a fresh directory, booted on demand."""
 
-    def __init__(self, tar, name="rsd-test", binds=()):
+    def __init__(self, tar, name="rsd-systemd", binds=()):
         self.name = f"{name}-{os.getpid()}"
         self.dir = tempfile.mkdtemp(prefix=f"{name}-", dir=os.environ.get("RSD_CONTAINER_DIR"))
         self.binds = list(binds)
