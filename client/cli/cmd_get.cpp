@@ -3,8 +3,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include <algorithm>
-#include <chrono>
 #include <set>
 
 namespace rsdiscover {
@@ -18,37 +16,14 @@ void row(const char* key, const std::string& value) {
 int run(const ParsedArgs& args) {
   if (args.positional.size() != 1) throw UsageError("give exactly one device ID");
   const std::string& key = args.positional[0];
-  auto options = client_options(args);
-  const auto started = std::chrono::steady_clock::now();
-  rsdiscovery::Client client(args.get("endpoint"), options);
-  auto device = client.find_device(key);  // waits for the complete table, unless told not to
-  bool complete = true;
+  auto client = make_client(args);
+  // The daemon looks the key up (id, serial or topic-root), waiting for its complete
+  // table unless told not to; a key of several devices is an Error listing their ids.
+  auto device = client.find_device(key);
   if (!device) {
-    std::vector<rsdiscovery::Device> hits;
-    // What is left of the one wait for the complete table (find_device() has normally
-    // seen it complete already, and this list is then immediate).
-    options.complete_timeout = std::max(
-        options.complete_timeout - std::chrono::duration_cast<std::chrono::milliseconds>(
-                                       std::chrono::steady_clock::now() - started),
-        std::chrono::milliseconds::zero());
-    auto list = rsdiscovery::Client(args.get("endpoint"), options).list();
-    complete = list.complete;
-    for (auto& d : list.devices)
-      if (d.serial == key || d.topic_root == key) hits.push_back(std::move(d));
-    if (hits.size() > 1) {
-      std::string ids;
-      for (const auto& d : hits) ids += "\n  " + d.id;
-      std::fprintf(stderr, "rs-discover: %zu devices match '%s'; name one by its id:%s\n", hits.size(),
-                   key.c_str(), ids.c_str());
-      return kNotFound;
-    }
-    if (hits.empty()) {
-      std::fprintf(stderr, "rs-discover: no device '%s' (ids are listed by 'rs-discover list -q')\n",
-                   key.c_str());
-      if (!complete) warn_incomplete();
-      return kNotFound;
-    }
-    device = std::move(hits[0]);
+    std::fprintf(stderr, "rs-discover: no device '%s' (ids are listed by 'rs-discover list -q')\n",
+                 key.c_str());
+    return kNotFound;
   }
   const auto& d = *device;
   auto doc = nlohmann::json::parse(d.json);
@@ -67,7 +42,7 @@ int run(const ParsedArgs& args) {
   row("Firmware", d.fw_version);
   std::string state = device_state(d);
   row("State", paint(state, state_color(state)));
-  row("Warning", d.warning);
+  for (const auto& w : d.warnings) row("Warning", w);
   if (d.server) {
     row("Address", device_addresses(d));
     row("Server", d.server->participant_name);
@@ -82,7 +57,7 @@ int run(const ParsedArgs& args) {
   if (!d.last_seen.empty()) row("Last seen", d.last_seen + " (" + age_since(d.last_seen) + " ago)");
   static const std::set<std::string> shown = {
       "id", "name", "serial", "source", "sources", "domain", "topic-root", "product-line", "product-id",
-      "fw-version", "recovery", "warning", "server", "usb", "first-seen", "last-seen"};
+      "fw-version", "recovery", "warnings", "server", "usb", "first-seen", "last-seen"};
   for (const auto& [k, v] : doc.items())
     if (!shown.count(k)) row(k.c_str(), v.is_string() ? v.get<std::string>() : v.dump());
   return kOk;

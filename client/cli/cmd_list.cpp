@@ -16,6 +16,7 @@ int run(const ParsedArgs& args) {
 
   std::vector<rsdiscovery::Device> devices;
   bool complete = true;
+  std::uint64_t generation = 0;
   if (wait > 0) {
     auto ms = std::chrono::milliseconds(static_cast<long long>(timeout * 1000));
     auto got = client.wait_until(
@@ -27,10 +28,19 @@ int run(const ParsedArgs& args) {
       return kNotFound;
     }
     devices = std::move(*got);
+    // The API's answer, generation and all, taken now that the wait is over (it holds
+    // what the wait saw, or newer).
+    if (args.has("json")) {
+      auto list = client.list(filter);
+      devices = std::move(list.devices);
+      complete = list.complete;
+      generation = list.generation;
+    }
   } else {
     auto list = client.list(filter);  // waits for the complete table, unless told not to
     devices = std::move(list.devices);
     complete = list.complete;
+    generation = list.generation;
   }
   if (!complete) warn_incomplete();
 
@@ -42,7 +52,7 @@ int run(const ParsedArgs& args) {
       if (i) out += ',';
       out += devices[i].json;
     }
-    out += "]}\n";
+    out += "],\"generation\":" + std::to_string(generation) + "}\n";
     std::fputs(out.c_str(), stdout);
     return kOk;
   }
@@ -87,7 +97,7 @@ const Command kListCommand = {
         {"domain", 0, "N", "only devices on DDS domain N"},
         {"product-line", 0, "LINE", "only devices of this product line (D400, D500, ...)"},
         {"source", 0, "SOURCE", "only devices seen this way: dds or usb"},
-        {"json", 0, nullptr, "print JSON: {\"complete\": true, \"devices\": [...]}, as the API gives it"},
+        {"json", 0, nullptr, "print JSON: {\"complete\": true, \"devices\": [...], \"generation\": N}, as the API gives it"},
         {"quiet", 'q', nullptr, "print only the device ids, one a line"},
         {"wide", 'w', nullptr, "add the PRODUCT-ID, FW and ID columns"},
         {"wait", 0, "N", "wait until at least N matching devices are present"},

@@ -214,11 +214,7 @@ std::string join(const std::vector<std::string>& parts, const std::string& sep) 
   return out;
 }
 
-std::string device_state(const rsdiscovery::Device& d) {
-  if (d.recovery) return "recovery";
-  if (!d.warning.empty()) return "warning";
-  return "ok";
-}
+std::string device_state(const rsdiscovery::Device& d) { return d.state.empty() ? "ok" : d.state; }
 
 const char* state_color(const std::string& state) {
   if (state == "ok") return color::green;

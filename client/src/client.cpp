@@ -101,6 +101,16 @@ std::optional<Device> Client::find_device(const std::string& id) {
     if (!body.is_object() || detail::reports_complete(body) || Clock::now() >= deadline) return std::nullopt;
     pause_until(deadline);
   }
+  if (reply.status == 409) {  // a serial or topic-root of several devices: the daemon lists their ids
+    auto body = json::parse(reply.body, nullptr, false);
+    std::string message = "'" + id + "' names several devices; name one by its id";
+    if (body.is_object() && body.contains("error") && body["error"].is_string())
+      message = body["error"].get<std::string>();
+    if (body.is_object() && body.contains("ids") && body["ids"].is_array())
+      for (const auto& other : body["ids"])
+        if (other.is_string()) message += "\n  " + other.get<std::string>();
+    throw Error(ErrorCode::not_found, message, 409);
+  }
   if (reply.status != 200) {
     std::lock_guard lock(impl_->mutex);
     impl_->transport.get_json(path);  // turns the status into its Error

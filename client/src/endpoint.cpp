@@ -1,6 +1,8 @@
 // Where the daemon is: endpoint strings, the environment, the daemon's default path.
 #include "internal.hpp"
 
+#include "rsd_model/socket_path.hpp"
+
 #include <unistd.h>
 
 #include <cstdlib>
@@ -67,28 +69,16 @@ Endpoint Endpoint::parse(const std::string& text) {
   return ep;
 }
 
-namespace {
-constexpr const char* kSystemSocket = "/run/rs-discoveryd/api.sock";
-}  // namespace
-
 Endpoint Endpoint::default_socket() {
+  using rsd::model::kSystemSocket;
   Endpoint ep;
   ep.kind = Kind::unix_socket;
-  if (const char* dir = env("RUNTIME_DIRECTORY")) {
-    // systemd may pass several directories separated by ':'; the daemon uses the first.
-    std::string first(dir);
-    first = first.substr(0, first.find(':'));
-    ep.path = first + "/api.sock";
-  } else if (geteuid() == 0) {
+  ep.path = rsd::model::default_socket_path();  // the daemon's own rule
+  // A user with no daemon of their own asks the system's (the service runs as its own
+  // user; members of its group may use its socket).
+  if (!env("RUNTIME_DIRECTORY") && ep.path != kSystemSocket && access(ep.path.c_str(), F_OK) != 0 &&
+      access(kSystemSocket, F_OK) == 0)
     ep.path = kSystemSocket;
-  } else {
-    const char* xdg = env("XDG_RUNTIME_DIR");
-    ep.path = xdg ? std::string(xdg) + "/rs-discoveryd.sock"
-                  : "/run/user/" + std::to_string(geteuid()) + "/rs-discoveryd.sock";
-    // A user with no daemon of their own asks the system's (the service runs as
-    // its own user; members of its group may use its socket).
-    if (access(ep.path.c_str(), F_OK) != 0 && access(kSystemSocket, F_OK) == 0) ep.path = kSystemSocket;
-  }
   return ep;
 }
 

@@ -3,6 +3,8 @@
 
 #include "rsdiscovery/rsdiscovery.hpp"
 
+#include "rsd_model/device.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <atomic>

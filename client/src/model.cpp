@@ -65,54 +65,47 @@ std::optional<int> integer(const json& doc, const char* key) {
   return std::nullopt;
 }
 
-std::vector<std::string> strings(const json& doc, const char* key) {
-  std::vector<std::string> out;
-  auto it = doc.find(key);
-  if (it == doc.end() || !it->is_array()) return out;
-  for (const auto& v : *it)
-    if (v.is_string()) out.push_back(v.get<std::string>());
-  return out;
-}
-
 }  // namespace
 
+// The daemon's model (proto/model) reads the document; this only maps it onto the
+// public struct, which has to stay free of nlohmann.
 Device device_from_json(const json& doc) {
   if (!doc.is_object()) malformed("a device is not a JSON object");
-  auto id = doc.find("id");
-  if (id == doc.end() || !id->is_string() || id->get_ref<const std::string&>().empty())
-    malformed("a device has no \"id\"");
+  const rsd::model::Device m = rsd::model::device_from_json(doc);
+  if (m.id.empty()) malformed("a device has no \"id\"");
   Device d;
-  d.id = id->get<std::string>();
-  d.source = text(doc, "source");
-  d.sources = strings(doc, "sources");
+  d.id = m.id;
+  for (auto s : m.sources) d.sources.push_back(rsd::model::to_string(s));
+  if (m.source) d.source = rsd::model::to_string(*m.source);
   if (d.sources.empty() && !d.source.empty()) d.sources.push_back(d.source);
   if (d.source.empty() && !d.sources.empty()) d.source = d.sources.front();
-  d.domain = integer(doc, "domain");
-  d.topic_root = text(doc, "topic-root");
-  d.name = text(doc, "name");
-  d.serial = text(doc, "serial");
-  d.product_line = text(doc, "product-line");
-  d.product_id = text(doc, "product-id");
-  d.fw_version = text(doc, "fw-version");
-  if (auto r = doc.find("recovery"); r != doc.end() && r->is_boolean()) d.recovery = r->get<bool>();
-  d.first_seen = text(doc, "first-seen");
-  d.last_seen = text(doc, "last-seen");
-  if (auto s = doc.find("server"); s != doc.end() && s->is_object()) {
+  d.domain = m.domain;
+  d.topic_root = m.topic_root.value_or("");
+  d.name = m.name.value_or("");
+  d.serial = m.serial.value_or("");
+  d.product_line = m.product_line.value_or("");
+  d.product_id = m.product_id.value_or("");
+  d.fw_version = m.fw_version.value_or("");
+  d.recovery = m.recovery.value_or(false);
+  d.first_seen = m.first_seen.value_or("");
+  d.last_seen = m.last_seen.value_or("");
+  if (m.server) {
     ServerInfo info;
-    info.participant_guid = text(*s, "participant-guid");
-    info.participant_name = text(*s, "participant-name");
-    info.addresses = strings(*s, "addresses");
+    info.participant_guid = m.server->participant_guid.value_or("");
+    info.participant_name = m.server->participant_name.value_or("");
+    info.addresses = m.server->addresses.value_or(std::vector<std::string>{});
     d.server = std::move(info);
   }
-  if (auto u = doc.find("usb"); u != doc.end() && u->is_object()) {
+  if (m.usb) {
     UsbInfo info;
-    info.bus = integer(*u, "bus");
-    info.port_path = text(*u, "port-path");
-    info.speed = text(*u, "speed");
+    info.bus = m.usb->bus;
+    info.port_path = m.usb->port_path;
+    info.speed = m.usb->speed;
     d.usb = std::move(info);
   }
-  if (auto w = doc.find("warning"); w != doc.end() && !w->is_null())
-    d.warning = w->is_string() ? w->get<std::string>() : w->dump();
+  d.warnings = m.warnings;
+  if (!d.warnings.empty()) d.warning = d.warnings.front();
+  d.state = rsd::model::to_string(m.state());
   d.json = doc.dump();
   return d;
 }
@@ -206,17 +199,6 @@ Device parse_device(const std::string& json_text) {
   auto doc = nlohmann::json::parse(json_text, nullptr, false);
   if (doc.is_discarded()) throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: not JSON");
   return detail::device_from_json(doc);
-}
-
-bool DeviceFilter::matches(const Device& device) const {
-  if (domain && device.domain != domain) return false;
-  if (!product_line.empty() && device.product_line != product_line) return false;
-  if (!source.empty()) {
-    bool any = device.source == source;
-    for (const auto& s : device.sources) any = any || s == source;
-    if (!any) return false;
-  }
-  return true;
 }
 
 }  // namespace rsdiscovery

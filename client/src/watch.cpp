@@ -89,8 +89,7 @@ std::vector<Device> WatchCore::devices() const {
   std::lock_guard lock(mutex_);
   std::vector<Device> out;
   for (const auto& [id, doc] : known_) {
-    Device d = detail::device_from_json(doc);
-    if (options_.filter.matches(d)) out.push_back(std::move(d));
+    out.push_back(detail::device_from_json(doc));  // the daemon filtered the view already
   }
   return out;
 }
@@ -312,7 +311,6 @@ void WatchCore::apply(Event::Type type, json doc, std::uint64_t id, bool synthet
     }
     out.device = detail::device_from_json(doc);
   }
-  if (!options_.filter.matches(out.device)) return;
   sink_(std::move(out));
 }
 

@@ -29,7 +29,9 @@ constexpr std::chrono::milliseconds kStreamSlice{100};
 // The API takes no bodies; anything bigger than this is refused before it is read.
 constexpr std::size_t kMaxPayload = 64 * 1024;
 
-const std::regex kDeviceRoute(R"(/v1/devices/([^/]+))");
+// `.+`, not `[^/]+`: a topic-root ("realsense/D455_1") names a device too, and httplib
+// matches the decoded path.
+const std::regex kDeviceRoute(R"(/v1/devices/(.+))");
 
 bool known_path(const std::string& path) {
   static const std::set<std::string> fixed = {"/v1/devices", "/v1/events", "/v1/domains", "/healthz",
@@ -98,13 +100,16 @@ struct ApiServer::Impl {
   static std::map<int, std::size_t> count_by_domain(const std::vector<nlohmann::json>& devices) {
     std::map<int, std::size_t> out;
     for (const auto& d : devices)
-      if (auto it = d.find("domain"); it != d.end() && it->is_number_integer()) ++out[it->get<int>()];
+      if (auto it = d.find(model::key::domain); it != d.end() && it->is_number_integer()) ++out[it->get<int>()];
     return out;
   }
 
   void configure(Listener& svr);
   void handle_devices(const httplib::Request& req, httplib::Response& res);
   void handle_device(const httplib::Request& req, httplib::Response& res);
+  // The devices `name` names: the one with that id, else those with that serial
+  // or topic-root.
+  std::vector<nlohmann::json> lookup(const std::string& name) const;
   void handle_domains(const httplib::Request& req, httplib::Response& res);
   void handle_health(const httplib::Request& req, httplib::Response& res);
   void handle_metrics(const httplib::Request& req, httplib::Response& res);
@@ -134,7 +139,7 @@ void ApiServer::Impl::configure(Listener& svr) {
   svr.set_write_timeout(5, 0);
 
   svr.Get("/v1/devices", [this](const auto& req, auto& res) { handle_devices(req, res); });
-  svr.Get(R"(/v1/devices/([^/]+))", [this](const auto& req, auto& res) { handle_device(req, res); });
+  svr.Get(R"(/v1/devices/(.+))", [this](const auto& req, auto& res) { handle_device(req, res); });
   svr.Get("/v1/domains", [this](const auto& req, auto& res) { handle_domains(req, res); });
   svr.Get("/v1/events", [this](const auto& req, auto& res) { handle_events(req, res); });
   svr.Get("/healthz", [this](const auto& req, auto& res) { handle_health(req, res); });
@@ -213,10 +218,30 @@ void ApiServer::Impl::handle_devices(const httplib::Request& req, httplib::Respo
   send_json(res, 200, {{"generation", snap.generation}, {"complete", done}, {"devices", std::move(devices)}});
 }
 
+std::vector<nlohmann::json> ApiServer::Impl::lookup(const std::string& name) const {
+  if (auto doc = table.find(name)) return {std::move(*doc)};
+  // Not an id: a serial or a topic-root names a device too (the model's rule), when it
+  // names exactly one; two cameras behind one serial must be told apart by id.
+  std::vector<nlohmann::json> hits;
+  for (auto& d : table.snapshot().devices)
+    if (model::device_from_json(d).named_by(name)) hits.push_back(std::move(d));
+  return hits;
+}
+
 void ApiServer::Impl::handle_device(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/v1/devices/{id}", req.params, {})) return send_error(res, 400, *err);
   const std::string id = req.matches.size() > 1 ? req.matches[1].str() : "";
   const bool done = complete(domains());
-  if (auto doc = table.find(id)) return send_json(res, 200, *doc);
+  auto hits = lookup(id);
+  if (hits.size() == 1) return send_json(res, 200, hits.front());
+  if (hits.size() > 1) {
+    nlohmann::json ids = nlohmann::json::array();
+    for (const auto& d : hits) ids.push_back(d.value(model::key::id, std::string()));
+    return send_json(res, 409, {{"error", std::to_string(hits.size()) + " devices match '" + id +
+                                              "'; name one by its id"},
+                                {"status", 409},
+                                {"ids", std::move(ids)}});
+  }
   // A 404 from an incomplete table may turn into a 200 in a moment: say which it
   // is, so a client can wait instead of reporting the camera absent.
   send_json(res, 404, {{"error", "no device with id '" + id + "'" +
@@ -226,7 +251,7 @@ void ApiServer::Impl::handle_device(const httplib::Request& req, httplib::Respon
 }
 
 void ApiServer::Impl::handle_domains(const httplib::Request& req, httplib::Response& res) {
-  if (!req.params.empty()) return send_error(res, 400, "/v1/domains takes no query parameters");
+  if (auto err = check_params("/v1/domains", req.params, {})) return send_error(res, 400, *err);
   const auto all = domains();
   const auto counts = count_by_domain(table.snapshot().devices);
   nlohmann::json list = nlohmann::json::array();
@@ -238,7 +263,8 @@ void ApiServer::Impl::handle_domains(const httplib::Request& req, httplib::Respo
   send_json(res, 200, {{"complete", complete(all)}, {"domains", std::move(list)}});
 }
 
-void ApiServer::Impl::handle_health(const httplib::Request&, httplib::Response& res) {
+void ApiServer::Impl::handle_health(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/healthz", req.params, {})) return send_error(res, 400, *err);
   const bool done = complete(domains());
   auto snap = table.snapshot();
   nlohmann::json usb = {{"state", "off"}};
@@ -258,7 +284,8 @@ void ApiServer::Impl::handle_health(const httplib::Request&, httplib::Response& 
              {"usb", std::move(usb)}});
 }
 
-void ApiServer::Impl::handle_metrics(const httplib::Request&, httplib::Response& res) {
+void ApiServer::Impl::handle_metrics(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/metrics", req.params, {})) return send_error(res, 400, *err);
   MetricsInput in;
   in.version = status.version;
   in.domains = domains();

@@ -18,6 +18,7 @@ std::string_view status_text(int status) {
     case 404: return "not found";
     case 405: return "method not allowed";
     case 408: return "request timeout";
+    case 409: return "conflict";
     case 413: return "payload too large";
     case 414: return "URI too long";
     case 416: return "range not satisfiable";
@@ -65,8 +66,23 @@ std::optional<std::uint64_t> parse_generation(std::string_view text) {
   return value;
 }
 
+std::optional<std::string> check_params(std::string_view route, const QueryParams& params,
+                                        const std::set<std::string>& allowed) {
+  for (const auto& [key, value] : params) {
+    if (allowed.contains(key)) continue;
+    if (allowed.empty()) return std::string(route) + " takes no query parameters (got '" + key + "')";
+    std::string known;
+    for (const auto& k : allowed) known += (known.empty() ? "" : ", ") + k;
+    return "unknown query parameter '" + key + "' (known: " + known + ")";
+  }
+  return std::nullopt;
+}
+
 std::optional<std::string> parse_device_filter(const QueryParams& params, DeviceFilter& out,
                                                const std::set<std::string>& also_allowed) {
+  std::set<std::string> allowed = also_allowed;
+  allowed.insert({"domain", "product-line", "source"});
+  if (auto err = check_params("this route", params, allowed)) return err;
   for (const auto& [key, value] : params) {
     if (key == "domain") {
       auto d = parse_domain(value);
@@ -76,40 +92,24 @@ std::optional<std::string> parse_device_filter(const QueryParams& params, Device
       if (value.empty()) return std::string("empty product-line");
       out.product_lines.insert(lower(value));
     } else if (key == "source") {
-      if (value != "dds" && value != "usb") return "bad source '" + value + "': expected dds or usb";
-      out.sources.insert(value);
-    } else if (!also_allowed.contains(key)) {
-      std::string allowed = "domain, product-line, source";
-      for (const auto& k : also_allowed) allowed += ", " + k;
-      return "unknown query parameter '" + key + "' (known: " + allowed + ")";
+      auto source = model::parse_source(lower(value));
+      if (!source) return "bad source '" + value + "': expected dds or usb";
+      out.sources.insert(*source);
     }
   }
   return std::nullopt;
 }
 
-bool DeviceFilter::matches(const nlohmann::json& device) const {
-  if (!device.is_object()) return false;
-  if (!domains.empty()) {
-    auto it = device.find("domain");
-    if (it == device.end() || !it->is_number_integer() || !domains.contains(it->get<int>()))
-      return false;
-  }
-  if (!product_lines.empty()) {
-    auto it = device.find("product-line");
-    if (it == device.end() || !it->is_string() || !product_lines.contains(lower(it->get<std::string>())))
-      return false;
-  }
-  if (!sources.empty()) {
-    // A device seen by one source has "source"; one merged from several (a later
-    // issue) has "sources": match either.
-    bool hit = false;
-    if (auto it = device.find("source"); it != device.end() && it->is_string())
-      hit = sources.contains(it->get<std::string>());
-    if (auto it = device.find("sources"); !hit && it != device.end() && it->is_array())
-      for (const auto& s : *it)
-        if (s.is_string() && sources.contains(s.get<std::string>())) hit = true;
-    if (!hit) return false;
-  }
+bool DeviceFilter::matches(const nlohmann::json& doc) const {
+  if (!doc.is_object()) return false;
+  if (empty()) return true;  // the common case costs no conversion
+  const model::Device device = model::device_from_json(doc);
+  if (!domains.empty() && (!device.domain || !domains.contains(*device.domain))) return false;
+  if (!product_lines.empty() && (!device.product_line || !product_lines.contains(lower(*device.product_line))))
+    return false;
+  if (!sources.empty() &&
+      std::none_of(sources.begin(), sources.end(), [&](model::Source s) { return device.seen_by(s); }))
+    return false;
   return true;
 }
 

@@ -3,8 +3,10 @@
 // them directly and the server code stays about transport.
 #pragma once
 
-#include "dds/domain_status.hpp"
-#include "usb/usb_status.hpp"
+#include "status/domain_status.hpp"
+#include "status/usb_status.hpp"
+
+#include "rsd_model/device.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -30,20 +32,26 @@ std::string dump(const nlohmann::json& doc);
 std::string error_body(int status, std::string_view message);
 std::string_view status_text(int status);
 
-// Repeating a key ORs its values (?domain=0&domain=1); different keys AND.
+// The one filter of the API, and so of every client (they pass theirs to the API and
+// never filter again). Repeating a key ORs its values (?domain=0&domain=1); different
+// keys AND. Values compare case-insensitively (product-line=d400, source=USB).
 struct DeviceFilter {
   std::set<int> domains;
-  std::set<std::string> product_lines;  // compared case-insensitively
-  std::set<std::string> sources;        // "dds", "usb"
+  std::set<std::string> product_lines;  // lower case
+  std::set<model::Source> sources;
 
   bool empty() const { return domains.empty() && product_lines.empty() && sources.empty(); }
   bool matches(const nlohmann::json& device) const;
 };
 
+// The rule of every route for query parameters: parameter names are exact (lower
+// case), and a name the route does not take is a 400, so a typo such as ?domian=1 is
+// never silently ignored and answered with every device. Returns the 400's message.
+std::optional<std::string> check_params(std::string_view route, const QueryParams& params,
+                                        const std::set<std::string>& allowed);
+
 // Parses the filter keys (domain, product-line, source); any other key must be
-// in `also_allowed`, else it is an error, so a typo such as ?domian=1 is not
-// silently ignored and answered with every device. Returns the error message
-// for a 400, or nothing.
+// in `also_allowed` (check_params). Returns the error message for a 400, or nothing.
 std::optional<std::string> parse_device_filter(const QueryParams& params, DeviceFilter& out,
                                                const std::set<std::string>& also_allowed = {});
 
@@ -72,7 +80,7 @@ struct MetricsInput {
   std::size_t event_streams = 0;
   std::uint64_t event_streams_rejected = 0;
   std::map<int, std::uint64_t> requests_by_status;
-  std::optional<usb::UsbStatus> usb;  // nothing when USB is turned off
+  std::optional<UsbStatus> usb;  // nothing when USB is turned off
 };
 
 // Prometheus text exposition format 0.0.4.

@@ -1,5 +1,7 @@
 #include "config/config.hpp"
 
+#include "rsd_model/socket_path.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <charconv>
@@ -79,18 +81,8 @@ std::size_t parse_limit(const std::string& text, const std::string& where) {
 
 }  // namespace
 
-std::string default_socket_path() {
-  if (const char* rd = std::getenv("RUNTIME_DIRECTORY"); rd && *rd) {
-    std::string dir = rd;
-    // systemd may list several directories separated by ':'; the first is ours.
-    dir = dir.substr(0, dir.find(':'));
-    return dir + "/api.sock";
-  }
-  if (geteuid() == 0) return "/run/rs-discoveryd/api.sock";
-  if (const char* xdg = std::getenv("XDG_RUNTIME_DIR"); xdg && *xdg)
-    return std::string(xdg) + "/rs-discoveryd.sock";
-  return "/tmp/rs-discoveryd-" + std::to_string(geteuid()) + ".sock";
-}
+// The rule is the clients' too (proto/model), so they find the socket we listen on.
+std::string default_socket_path() { return rsd::model::default_socket_path(); }
 
 void apply_config_json(const std::string& text, Config& config) {
   const std::string where = config.config_file.empty() ? "config" : config.config_file;

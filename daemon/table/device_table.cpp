@@ -47,8 +47,8 @@ const std::string* string_field(const nlohmann::json& doc, const char* key) {
 // The key on which sightings may merge: the exact serial of a sighting that says
 // which source it comes from. Nothing else (no prefixes, no case folding).
 std::optional<std::string> merge_key(const nlohmann::json& doc) {
-  const auto* source = string_field(doc, "source");
-  const auto* serial = string_field(doc, "serial");
+  const auto* source = string_field(doc, model::key::source);
+  const auto* serial = string_field(doc, model::key::serial);
   if (!source || source->empty() || !serial || serial->empty()) return std::nullopt;
   return *serial;
 }
@@ -93,7 +93,7 @@ DeviceTable::Layout DeviceTable::layout(const std::set<std::string>& sightings) 
     // The lowest id of each source takes part; the first source names the entry.
     std::map<std::pair<std::size_t, std::string>, std::string> first_of_source;
     for (const auto& id : ids) {
-      const auto rank = source_rank(*string_field(sightings_.at(id), "source"));
+      const auto rank = source_rank(*string_field(sightings_.at(id), model::key::source));
       first_of_source.emplace(rank, id);  // ids are sorted: the first one stays
     }
     std::vector<std::string> members;
@@ -107,14 +107,14 @@ DeviceTable::Layout DeviceTable::layout(const std::set<std::string>& sightings) 
 
 nlohmann::json DeviceTable::build_entry(const std::vector<std::string>& members) const {
   nlohmann::json entry = sightings_.at(members.front());
-  const bool sourced = string_field(entry, "source") != nullptr;
+  const bool sourced = string_field(entry, model::key::source) != nullptr;
   std::set<std::string> sources;
-  if (sourced) sources.insert(*string_field(entry, "source"));
+  if (sourced) sources.insert(*string_field(entry, model::key::source));
   for (std::size_t i = 1; i < members.size(); ++i) {
     const auto& other = sightings_.at(members[i]);
-    if (const auto* src = string_field(other, "source")) sources.insert(*src);
+    if (const auto* src = string_field(other, model::key::source)) sources.insert(*src);
     for (const auto& [key, value] : other.items()) {
-      if (key == "id" || key == "source" || key == kSources || key == kFirstSeen ||
+      if (key == model::key::id || key == model::key::source || key == kSources || key == kFirstSeen ||
           key == kLastSeen || entry.contains(key))
         continue;
       entry[key] = value;
@@ -163,7 +163,7 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
 std::optional<DeviceEvent> DeviceTable::event_for(const std::vector<DeviceEvent>& events,
                                                   const std::string& entry_id) const {
   for (const auto& e : events)
-    if (e.device.value("id", std::string()) == entry_id) return e;
+    if (e.device.value(model::key::id, std::string()) == entry_id) return e;
   return std::nullopt;
 }
 
@@ -172,7 +172,7 @@ std::optional<DeviceEvent> DeviceTable::upsert(const std::string& id, nlohmann::
   if (!doc.is_object()) doc = nlohmann::json::object();
   doc.erase(kSources);
   doc.erase(kMergedInto);
-  doc["id"] = id;
+  doc[model::key::id] = id;
   doc[kLastSeen] = now;
   std::set<std::string> affected = group_of(id);
   auto old = sightings_.find(id);

@@ -3,6 +3,8 @@
 // for the sources' and frontends' threads, and the unit tests drive it directly.
 #pragma once
 
+#include "rsd_model/device.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
@@ -55,10 +57,11 @@ struct EventsSince {
 class DeviceTable {
  public:
   // Fields the table owns itself; a source's document never sets them.
-  static constexpr const char* kFirstSeen = "first-seen";
-  static constexpr const char* kLastSeen = "last-seen";
-  static constexpr const char* kSources = "sources";
-  static constexpr const char* kMergedInto = "merged-into";
+  // (Spelled once, by the API's model.)
+  static constexpr const char* kFirstSeen = model::key::first_seen;
+  static constexpr const char* kLastSeen = model::key::last_seen;
+  static constexpr const char* kSources = model::key::sources;
+  static constexpr const char* kMergedInto = model::key::merged_into;
 
   // `first_generation` lets a restarted daemon continue above its predecessor's ids
   // (main seeds it from the clock), so a client resuming with an old id is told to

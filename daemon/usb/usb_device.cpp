@@ -100,40 +100,37 @@ std::optional<std::string> link_warning(const UsbSighting& s, const ProductInfo&
   return std::string(buf);
 }
 
-nlohmann::json to_json(const UsbSighting& s, const ProductInfo& product) {
-  nlohmann::json usb = {
-      {"bus", s.bus},
-      {"address", s.address},
-      {"port-path", port_path(s.bus, s.ports)},
-      {"speed", speed_name(s.speed_mbps)},
-      {"vid", hex4(s.vid)},
-      {"pid", hex4(s.pid)},
-  };
-  if (s.speed_mbps > 0) {
-    if (std::floor(s.speed_mbps) == s.speed_mbps)
-      usb["speed-mbps"] = static_cast<std::int64_t>(s.speed_mbps);
-    else
-      usb["speed-mbps"] = s.speed_mbps;
-  }
+model::Device to_device(const UsbSighting& s, const ProductInfo& product) {
+  model::Usb usb;
+  usb.bus = s.bus;
+  usb.address = s.address;
+  usb.port_path = port_path(s.bus, s.ports);
+  usb.speed = speed_name(s.speed_mbps);
+  usb.vid = hex4(s.vid);
+  usb.pid = hex4(s.pid);
+  if (s.speed_mbps > 0) usb.speed_mbps = s.speed_mbps;
   if (s.bcd_usb) {
     char ver[16];
     std::snprintf(ver, sizeof ver, "%x.%02x", static_cast<unsigned>(s.bcd_usb >> 8),
                   static_cast<unsigned>(s.bcd_usb & 0xFF));
-    usb["usb-version"] = ver;
+    usb.usb_version = ver;
   }
-  if (!s.sysfs_path.empty()) usb["sysfs-path"] = s.sysfs_path;
+  if (!s.sysfs_path.empty()) usb.sysfs_path = s.sysfs_path;
 
-  nlohmann::json doc = {
-      {"source", "usb"},
-      {"name", std::string("Intel RealSense ") + product.name},
-      {"product-id", hex4(s.pid)},
-      {"product-line", product.product_line},
-      {"recovery", product.recovery},
-      {"usb", std::move(usb)},
-  };
-  if (s.serial) doc["serial"] = *s.serial;
-  if (auto w = link_warning(s, product)) doc["warnings"] = nlohmann::json::array({*w});
-  return doc;
+  model::Device d;
+  d.source = model::Source::usb;
+  d.name = std::string("Intel RealSense ") + product.name;
+  d.product_id = hex4(s.pid);
+  d.product_line = product.product_line;
+  d.recovery = product.recovery;
+  d.usb = std::move(usb);
+  d.serial = s.serial;
+  if (auto w = link_warning(s, product)) d.warnings.push_back(*w);
+  return d;
+}
+
+nlohmann::json to_json(const UsbSighting& s, const ProductInfo& product) {
+  return model::to_json(to_device(s, product));
 }
 
 SysfsInfo read_sysfs(const std::string& sysfs_root, std::uint8_t bus,

@@ -5,6 +5,8 @@
 
 #include "usb/realsense_ids.hpp"
 
+#include "rsd_model/device.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
@@ -49,8 +51,9 @@ std::string sighting_id(const UsbSighting& s);
 // The plain-language warning for a USB 3 camera on a slower link, if any.
 std::optional<std::string> link_warning(const UsbSighting& s, const ProductInfo& product);
 
-// The table document: source, name, serial, product-id, product-line, recovery,
-// usb {...}, and warnings when there are any.
+// The sighting as the API's device (source, name, serial, product-id, product-line,
+// recovery, usb {...}, and warnings when there are any), and as the table's document.
+model::Device to_device(const UsbSighting& s, const ProductInfo& product);
 nlohmann::json to_json(const UsbSighting& s, const ProductInfo& product);
 
 // What sysfs says about the USB device named port_path(bus, ports) under

@@ -3,6 +3,8 @@
 // error paths the real daemon cannot be made to take (malformed replies, another API
 // version) and the watch's resume/re-list logic, event by event.
 #include "internal.hpp"
+#include "table/device_table.hpp"
+#include "usb/usb_device.hpp"
 
 #include <rsdiscovery/rsdiscovery.hpp>
 
@@ -165,19 +167,42 @@ TEST(Device, TakesEveryKnownFieldAndKeepsTheDocument) {
   EXPECT_EQ(json::parse(d.json)["fw-version"], "5.16.0.1");
 }
 
-TEST(Device, UsbAndMergedDevices) {
-  auto d = parse_device(R"({"id":"usb-2-1.3","sources":["usb","dds"],"usb":{"bus":2,"port-path":"2-1.3",
-    "speed":"5000"},"warning":"serial differs"})");
+// The documents below are the daemon's own (its USB builder and its table), never
+// written by hand: the client must read what the daemon writes.
+TEST(Device, UsbAndMergedDevicesAsTheDaemonWritesThem) {
+  rsd::usb::UsbSighting s;
+  s.vid = 0x8086;
+  s.pid = 0x0B07;  // D435: a USB 3 camera
+  s.bcd_usb = 0x0210;
+  s.bus = 2;
+  s.address = 5;
+  s.ports = {1, 3};
+  s.speed_mbps = 480;  // on a USB 2 link
+  s.serial = "123";
+  rsd::DeviceTable table;
+  table.upsert(rsd::usb::sighting_id(s), rsd::usb::to_json(s, *rsd::usb::find_product(s.vid, s.pid)),
+               "2026-11-23T13:10:20.123Z");
+  auto d = detail::device_from_json(table.devices().at(0));
   EXPECT_EQ(d.source, "usb");
   ASSERT_TRUE(d.usb);
   EXPECT_EQ(d.usb->bus, 2);
   EXPECT_EQ(d.usb->port_path, "2-1.3");
-  EXPECT_EQ(d.warning, "serial differs");
-  DeviceFilter f;
-  f.source = "dds";
-  EXPECT_TRUE(f.matches(d));
-  f.domain = 3;
-  EXPECT_FALSE(f.matches(d));
+  ASSERT_EQ(d.warnings.size(), 1u);
+  EXPECT_NE(d.warnings[0].find("USB 2"), std::string::npos);
+  EXPECT_EQ(d.warning, d.warnings[0]);
+  EXPECT_EQ(d.state, "warning");
+
+  // The same camera over DDS: one entry, seen both ways, the warning kept.
+  table.upsert("dds-0-realsense.D435_123",
+               {{"source", "dds"}, {"serial", "123"}, {"domain", 0}, {"topic-root", "realsense/D435_123"},
+                {"name", "Intel RealSense D435"}, {"recovery", false}, {"server", json::object()}},
+               "2026-11-23T13:10:21.000Z");
+  auto merged = detail::device_from_json(table.devices().at(0));
+  EXPECT_EQ(merged.source, "dds");
+  EXPECT_EQ(merged.sources, (std::vector<std::string>{"dds", "usb"}));
+  EXPECT_EQ(merged.domain, 0);
+  ASSERT_TRUE(merged.usb);
+  EXPECT_EQ(merged.state, "warning");
 }
 
 TEST(Device, RejectsWhatIsNotADevice) {

@@ -83,9 +83,10 @@ struct RSDISCOVERY_API Endpoint {
   static Endpoint parse(const std::string& text);
   // $RS_DISCOVERY_ENDPOINT when set and not empty, else default_socket().
   static Endpoint from_environment();
-  // The daemon's own default: $RUNTIME_DIRECTORY/api.sock when set, else
-  // /run/rs-discoveryd/api.sock for root, else $XDG_RUNTIME_DIR/rs-discoveryd.sock,
-  // or the system service's /run/rs-discoveryd/api.sock when only that exists.
+  // The daemon's own default (the same rule as the daemon's): $RUNTIME_DIRECTORY/api.sock
+  // when set, else /run/rs-discoveryd/api.sock for root, else
+  // $XDG_RUNTIME_DIR/rs-discoveryd.sock, else /tmp/rs-discoveryd-UID.sock; or the system
+  // service's /run/rs-discoveryd/api.sock when only that exists.
   static Endpoint default_socket();
 
   std::string to_string() const;  // "unix:/path" or "http://host:port"
@@ -122,8 +123,10 @@ struct RSDISCOVERY_API Device {
   std::string last_seen;
   std::optional<ServerInfo> server;
   std::optional<UsbInfo> usb;
-  std::string warning;  // empty when none
-  std::string json;     // the whole device document as the daemon sent it
+  std::vector<std::string> warnings;  // plain-language, for example a USB 3 camera on a USB 2 link
+  std::string warning;                // the first of warnings; empty when none
+  std::string state;                  // "ok", "warning" (see warnings) or "recovery"
+  std::string json;                   // the whole device document as the daemon sent it
 
   // Any top-level field of the document as JSON text ("" when absent), for fields
   // this struct does not name (for example "multicast-ip").
@@ -166,13 +169,12 @@ struct DeviceList {
   bool complete = true;
 };
 
-// Filters of GET /v1/devices. Empty members do not filter.
+// Filters of GET /v1/devices and /v1/events. Empty members do not filter. The daemon
+// applies them (values compare case-insensitively); the library never filters again.
 struct RSDISCOVERY_API DeviceFilter {
   std::optional<int> domain;
   std::string product_line;
   std::string source;  // "dds" or "usb"
-
-  bool matches(const Device& device) const;  // the same test, done locally
 };
 
 struct Event {
@@ -194,7 +196,7 @@ struct WatchOptions {
   bool initial = false;
   // Resume after this event id (for example one saved by an earlier process).
   std::optional<std::uint64_t> last_event_id;
-  // Only events whose device matches are reported (the view is still tracked whole).
+  // Only devices that match are watched (the daemon filters the list and the stream).
   DeviceFilter filter;
   // Reconnect (and resume) when the daemon goes away, for example across a restart.
   bool reconnect = true;
@@ -326,7 +328,10 @@ class RSDISCOVERY_API Client {
   // ClientOptions::complete_timeout for the wait that comes first).
   DeviceList list(const DeviceFilter& filter = {});
   std::vector<Device> list_devices(const DeviceFilter& filter = {});  // list(filter).devices
-  Device get_device(const std::string& id);  // throws Error(not_found)
+  // One device by its id, serial or topic-root (the daemon's lookup). get_device throws
+  // Error(not_found) when absent; both throw Error(not_found) with http_status() 409
+  // when a serial or topic-root names several devices.
+  Device get_device(const std::string& id);
   std::optional<Device> find_device(const std::string& id);  // nothing when absent
   std::vector<DomainStatus> domains();
   Health health();

@@ -36,7 +36,12 @@ class PermissionDenied(RSDiscoveryError):
 
 
 class NotFound(RSDiscoveryError):
-    """No device with that id."""
+    """No device with that id, serial or topic-root; or (``ids`` set) a serial or
+    topic-root that names several devices, whose ids are listed."""
+
+    def __init__(self, message: str, ids: Optional[List[str]] = None) -> None:
+        super().__init__(message)
+        self.ids = ids or []
 
 
 class MalformedReply(RSDiscoveryError):
@@ -91,19 +96,21 @@ class Endpoint:
 
     @staticmethod
     def default_socket() -> "Endpoint":
-        """The daemon's default socket: $RUNTIME_DIRECTORY/api.sock, /run/rs-discoveryd/api.sock
-        for root, else $XDG_RUNTIME_DIR/rs-discoveryd.sock (or, when that does not exist, the
-        system service's /run/rs-discoveryd/api.sock if it does)."""
+        """The daemon's default socket, by the daemon's own rule (proto/model/socket_path.cpp,
+        which this mirrors; the tests check that they agree): $RUNTIME_DIRECTORY/api.sock,
+        /run/rs-discoveryd/api.sock for root, else $XDG_RUNTIME_DIR/rs-discoveryd.sock, else
+        /tmp/rs-discoveryd-UID.sock (or, when that does not exist, the system service's
+        /run/rs-discoveryd/api.sock if it does)."""
         runtime = os.environ.get("RUNTIME_DIRECTORY")
         if runtime:
             return Endpoint(path=runtime.split(":")[0] + "/api.sock")
         if os.geteuid() == 0:
-            return Endpoint(path="/run/rs-discoveryd/api.sock")
-        xdg = os.environ.get("XDG_RUNTIME_DIR") or f"/run/user/{os.geteuid()}"
-        own = xdg + "/rs-discoveryd.sock"
+            return Endpoint(path=_SYSTEM_SOCKET)
+        xdg = os.environ.get("XDG_RUNTIME_DIR")
+        own = xdg + "/rs-discoveryd.sock" if xdg else f"/tmp/rs-discoveryd-{os.geteuid()}.sock"
         # A user with no daemon of their own asks the system's service.
-        if not os.path.exists(own) and os.path.exists("/run/rs-discoveryd/api.sock"):
-            return Endpoint(path="/run/rs-discoveryd/api.sock")
+        if not os.path.exists(own) and os.path.exists(_SYSTEM_SOCKET):
+            return Endpoint(path=_SYSTEM_SOCKET)
         return Endpoint(path=own)
 
     @staticmethod
@@ -117,6 +124,9 @@ class Endpoint:
             return "unix:" + self.path
         host = f"[{self.host}]" if self.host and ":" in self.host else self.host
         return f"http://{host}:{self.port}"
+
+
+_SYSTEM_SOCKET = "/run/rs-discoveryd/api.sock"
 
 
 def _endpoint(value: "Endpoint | str | None") -> Endpoint:
@@ -167,16 +177,6 @@ def _query(domain: Optional[int], product_line: Optional[str], source: Optional[
     if source:
         q.append(("source", source))
     return ("?" + urllib.parse.urlencode(q)) if q else ""
-
-
-def _matches(d: Device, domain: Optional[int], product_line: Optional[str], source: Optional[str]) -> bool:
-    if domain is not None and d.get("domain") != domain:
-        return False
-    if product_line and d.get("product-line") != product_line:
-        return False
-    if source and d.get("source") != source and source not in (d.get("sources") or []):
-        return False
-    return True
 
 
 _NOT_NEWS = ("last-seen", "first-seen")
@@ -315,7 +315,8 @@ class Watcher:
     def devices(self) -> List[Device]:
         """The view as tracked now (matching the watch's filters)."""
         with self._lock:
-            return [dict(d) for d in self._known.values() if _matches(d, *self._filters)]
+            # The daemon filtered the list and the stream: the view holds matching devices only.
+            return [dict(d) for d in self._known.values()]
 
     def next(self, timeout: Optional[float] = None) -> Optional[Event]:
         """The next event; ``None`` when ``timeout`` seconds pass first or the watch was closed.
@@ -377,8 +378,7 @@ class Watcher:
                     return
                 kind = "changed" if old is not None else "added"
                 self._known[key] = doc
-        if _matches(doc, *self._filters):
-            self._queue.put(Event(kind, ident, doc, synthetic))
+        self._queue.put(Event(kind, ident, doc, synthetic))
 
     def _list_complete(self) -> Dict[str, Any]:
         # A daemon that has just (re)started answers at once, from a table lacking the
@@ -618,8 +618,10 @@ class Client:
         return devices
 
     def get_device(self, device_id: str) -> Device:
-        """One device by its id; raises :class:`NotFound` when there is none. While the
-        daemon's first discovery runs, an absent device is waited for (``complete_timeout``)."""
+        """One device by its id, serial or topic-root (the daemon looks it up); raises
+        :class:`NotFound` when there is none, or when a serial or topic-root names several
+        (their ids in ``NotFound.ids``). While the daemon's first discovery runs, an absent
+        device is waited for (``complete_timeout``)."""
         path = "/v1/devices/" + urllib.parse.quote(device_id, safe="")
         deadline = self._complete_deadline()
         while True:
@@ -635,6 +637,10 @@ class Client:
             if not isinstance(doc, dict) or _complete(doc) or left <= 0:
                 raise NotFound(f"no device {device_id!r} at rs-discoveryd ({self.endpoint})")
             time.sleep(min(left, _COMPLETE_POLL))
+        if status == 409:
+            reply = self._json_object(path, body)
+            ids = [i for i in reply.get("ids") or [] if isinstance(i, str)]
+            raise NotFound(str(reply.get("error") or f"{device_id!r} names several devices"), ids)
         if status != 200:
             raise self._status_error(path, status, body)
         doc = self._json_object(path, body)

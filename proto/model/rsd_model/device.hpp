@@ -1,0 +1,110 @@
+// The device document of the API (proto/openapi.yaml, `Device`) as a type. The daemon
+// builds its documents through it and the C++ client reads them through it: one
+// to_json, one from_json, one spelling of every key.
+//
+// Round trip: to_json(device_from_json(doc)) == doc for any JSON object. A DDS device
+// carries the camera's realdds device-info verbatim, and a peer may send keys of its
+// own, or known keys with unexpected types; whatever the typed members cannot hold as
+// it is stays in `extra`, untouched, so reading a document never loses or alters it.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace rsd::model {
+
+// Every key the daemon writes at the top level of a device, and inside "server" and
+// "usb". Nothing else in the daemon or the client spells them.
+namespace key {
+inline constexpr const char* id = "id";
+inline constexpr const char* source = "source";
+inline constexpr const char* sources = "sources";
+inline constexpr const char* domain = "domain";
+inline constexpr const char* topic_root = "topic-root";
+inline constexpr const char* name = "name";
+inline constexpr const char* serial = "serial";
+inline constexpr const char* product_line = "product-line";
+inline constexpr const char* product_id = "product-id";
+inline constexpr const char* fw_version = "fw-version";
+inline constexpr const char* recovery = "recovery";
+inline constexpr const char* first_seen = "first-seen";
+inline constexpr const char* last_seen = "last-seen";
+inline constexpr const char* server = "server";
+inline constexpr const char* usb = "usb";
+inline constexpr const char* warnings = "warnings";
+inline constexpr const char* merged_into = "merged-into";
+}  // namespace key
+
+enum class Source { dds, usb };
+const char* to_string(Source source);
+std::optional<Source> parse_source(std::string_view text);  // exact: "dds", "usb"
+
+// What a user is told first about a camera: recovery firmware wins over a warning.
+enum class DeviceState { ok, warning, recovery };
+const char* to_string(DeviceState state);
+
+// The realdds server that announced a DDS device (the latest one, when several do).
+// Members are optional because a device-info that arrived without a known writer
+// (never in practice, but the daemon allows for it) is served with "server": {}.
+struct Server {
+  std::optional<std::string> participant_guid;
+  std::optional<std::string> participant_name;
+  std::optional<std::vector<std::string>> addresses;
+  std::optional<std::string> writer_guid;
+};
+
+// Where a USB device is plugged, from its descriptor and sysfs.
+struct Usb {
+  int bus = 0;
+  int address = 0;
+  std::string port_path;  // the kernel's name, "2-1.4"
+  std::string speed;      // "low", "full", "high", "super", "super-plus", "unknown"
+  std::string vid, pid;   // 4 upper-case hex digits
+  std::optional<double> speed_mbps;      // written as an integer when it is whole
+  std::optional<std::string> usb_version;  // "3.20"
+  std::optional<std::string> sysfs_path;
+};
+
+struct Device {
+  std::string id;  // empty in a source's sighting: the table sets it
+  std::optional<Source> source;
+  std::vector<Source> sources;  // set by the table; empty: not written
+  std::optional<int> domain;    // DDS
+  std::optional<std::string> topic_root;
+  std::optional<std::string> name;
+  std::optional<std::string> serial;
+  std::optional<std::string> product_line;
+  std::optional<std::string> product_id;
+  std::optional<std::string> fw_version;
+  std::optional<bool> recovery;
+  std::optional<std::string> first_seen;  // ISO 8601 UTC, set by the table
+  std::optional<std::string> last_seen;
+  std::optional<Server> server;  // DDS
+  std::optional<Usb> usb;        // USB
+  std::vector<std::string> warnings;  // plain-language; empty: not written
+  std::optional<std::string> merged_into;  // on a `removed` entry that joined another
+  // Every other key, verbatim (the camera's own device-info keys; and a known key whose
+  // value is not of the type above). Always an object.
+  nlohmann::json extra = nlohmann::json::object();
+
+  DeviceState state() const;
+  bool seen_by(Source s) const;  // source or any of sources
+  // The lookup rule of GET /v1/devices/{key}, the clients and the CLI: after the id
+  // (which the table answers itself), a serial or a topic-root names a device.
+  bool named_by(std::string_view key) const;
+};
+
+nlohmann::json to_json(const Device& device);
+// Never throws (see the round trip above). Callers that need a device check first that
+// `doc` is an object with a string "id"; anything else gives an empty Device.
+Device device_from_json(const nlohmann::json& doc);
+
+// nlohmann's conversions, so `nlohmann::json j = device;` and `j.get<Device>()` work.
+inline void to_json(nlohmann::json& j, const Device& d) { j = to_json(d); }
+inline void from_json(const nlohmann::json& j, Device& d) { d = device_from_json(j); }
+
+}  // namespace rsd::model

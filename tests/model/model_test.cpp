@@ -1,0 +1,71 @@
+// The device model: what it reads it writes back unchanged, whatever a peer sent; the
+// lookup rule; the default-socket rule the daemon and the clients share.
+#include "rsd_model/device.hpp"
+#include "rsd_model/socket_path.hpp"
+
+#include <gtest/gtest.h>
+
+using nlohmann::json;
+using namespace rsd::model;
+
+namespace {
+
+TEST(Model, ReadsADdsDeviceAndWritesItBackUnchanged) {
+  auto doc = json::parse(R"({"id":"dds-7-realsense.D455_1","source":"dds","sources":["dds"],"domain":7,
+    "topic-root":"realsense/D455_1","name":"Intel RealSense D455","serial":"1","product-line":"D400",
+    "product-id":"0B5C","fw-version":"5.16.0.1","recovery":false,"first-seen":"2026-11-23T13:10:20.123Z",
+    "last-seen":"2026-11-23T13:10:21.000Z","multicast-ip":"239.0.0.1",
+    "server":{"participant-guid":"g","participant-name":"n","addresses":["192.168.1.5"],"writer-guid":"w"}})");
+  auto d = device_from_json(doc);
+  EXPECT_EQ(d.source, Source::dds);
+  EXPECT_EQ(d.domain, 7);
+  ASSERT_TRUE(d.server);
+  EXPECT_EQ(d.server->writer_guid, "w");
+  EXPECT_EQ(d.extra, json({{"multicast-ip", "239.0.0.1"}}));  // the camera's own key, verbatim
+  EXPECT_EQ(d.state(), DeviceState::ok);
+  EXPECT_EQ(to_json(d), doc);
+}
+
+TEST(Model, WhatTheTypesCannotHoldStaysVerbatim) {
+  // A peer's device-info may say anything: a numeric serial, a "usb" of its own...
+  for (const char* text : {R"({"id":"x","serial":123,"usb":"no","warnings":[],"server":{"odd":1}})",
+                           R"({"id":"","source":"ethernet","sources":["dds","x"],"domain":-1e3})",
+                           R"({"usb":{"bus":1,"address":2,"port-path":"1-1","speed":"high","vid":"8086"}})",
+                           R"({"recovery":"yes","merged-into":5,"domain":99999999999})"}) {
+    auto doc = json::parse(text);
+    EXPECT_EQ(to_json(device_from_json(doc)), doc) << text;
+  }
+  EXPECT_EQ(device_from_json(json::parse(R"({"serial":123})")).serial, std::nullopt);
+}
+
+TEST(Model, StateAndLookup) {
+  Device d;
+  d.serial = "123";
+  d.topic_root = "realsense/D435_123";
+  d.warnings = {"USB 2"};
+  EXPECT_EQ(d.state(), DeviceState::warning);
+  d.recovery = true;
+  EXPECT_EQ(d.state(), DeviceState::recovery);  // recovery firmware is told first
+  EXPECT_TRUE(d.named_by("123"));
+  EXPECT_TRUE(d.named_by("realsense/D435_123"));
+  EXPECT_FALSE(d.named_by("12"));
+  EXPECT_FALSE(d.named_by(""));
+}
+
+TEST(Model, UsbSpeedIsAnIntegerWhenWhole) {
+  Device d;
+  d.usb = Usb{1, 2, "1-1", "high", "8086", "0B07", 480.0, std::nullopt, std::nullopt};
+  EXPECT_EQ(to_json(d)["usb"]["speed-mbps"].dump(), "480");
+  d.usb->speed_mbps = 1.5;
+  EXPECT_EQ(to_json(d)["usb"]["speed-mbps"].dump(), "1.5");
+}
+
+TEST(Model, DefaultSocketRule) {
+  EXPECT_EQ(default_socket_path("/run/a:/run/b", "/x", 1000), "/run/a/api.sock");
+  EXPECT_EQ(default_socket_path(nullptr, "/run/user/1000", 0), kSystemSocket);
+  EXPECT_EQ(default_socket_path("", "/run/user/1000", 1000), "/run/user/1000/rs-discoveryd.sock");
+  EXPECT_EQ(default_socket_path(nullptr, "", 1000), "/tmp/rs-discoveryd-1000.sock");
+  EXPECT_EQ(default_socket_path(nullptr, nullptr, 1000), "/tmp/rs-discoveryd-1000.sock");
+}
+
+}  // namespace
