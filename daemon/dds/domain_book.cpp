@@ -1,5 +1,7 @@
 #include "dds/domain_book.hpp"
 
+#include "rsd_model/device.hpp"
+
 #include "log/log.hpp"
 
 #include <algorithm>
@@ -65,15 +67,14 @@ void DomainBook::sample(Handle handle, Parsed parsed) {
       }
     }
   }
-  nlohmann::json doc = std::move(info.fields);
-  const auto recovery = doc.find("recovery");
-  const bool in_recovery = recovery != doc.end() && recovery->is_boolean() && recovery->get<bool>();
-  doc["source"] = "dds";
-  doc["domain"] = options_.domain;
-  doc["topic-root"] = info.topic_root;
-  doc["recovery"] = in_recovery;
+  // The device-info verbatim, with what the daemon adds, through the API's model.
+  model::Device device = model::device_from_json(info.fields);
+  device.source = model::Source::dds;
+  device.domain = options_.domain;
+  device.topic_root = info.topic_root;
+  device.recovery = device.recovery.value_or(false);
   ++accepted_;
-  announce(id, writer, std::move(doc));
+  announce(id, writer, model::to_json(device));
 }
 
 void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann::json doc) {
@@ -81,10 +82,7 @@ void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann:
   nlohmann::json server = nlohmann::json::object();
   if (writer) {
     const WriterIdentity& w = writer->identity;
-    server = {{"participant-guid", w.participant_guid},
-              {"participant-name", w.participant_name},
-              {"addresses", w.addresses},
-              {"writer-guid", w.guid}};
+    server = model::to_json(model::Server{w.participant_guid, w.participant_name, w.addresses, w.guid});
     lost_.announced(w.participant_guid);  // found again, if it was lost
     auto& list = device.announcers;
     const auto it = std::find_if(list.begin(), list.end(), [&](const auto& a) { return a.first == w.guid; });
@@ -92,7 +90,7 @@ void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann:
     else ++per_participant_[w.participant_guid];
     list.emplace_back(w.guid, server);  // the latest announcer is shown
   }
-  doc["server"] = std::move(server);
+  doc[model::key::server] = std::move(server);
   device.doc = doc;
   if (auto ev = table_.upsert(id, std::move(doc)); ev && ev->type == EventType::added)
     log::info(prefix() + "device " + id + " added (from " + (writer ? writer->identity.guid : "unknown writer") +
@@ -131,7 +129,7 @@ bool DomainBook::drop_announcer(const std::string& id, const std::string& writer
     return true;
   }
   if (was_shown) {  // another server still serves it: show that one
-    dev->second.doc["server"] = list.back().second;
+    dev->second.doc[model::key::server] = list.back().second;
     log::info(prefix() + "device " + id + " now served by writer " + list.back().first + " (" + writer_guid +
               " left: " + why + ")");
     table_.upsert(id, dev->second.doc);
@@ -247,7 +245,7 @@ std::optional<nlohmann::json> DomainBook::announcement(const std::string& topic_
 
 std::map<std::string, nlohmann::json> DomainBook::announcements() const {
   std::map<std::string, nlohmann::json> out;
-  for (const auto& [id, device] : devices_) out.emplace(device.doc["topic-root"].get<std::string>(), device.doc);
+  for (const auto& [id, device] : devices_) out.emplace(device.doc[model::key::topic_root].get<std::string>(), device.doc);
   return out;
 }
 

@@ -158,7 +158,9 @@ bool read(const json& v, std::optional<T>& out) {
   return true;
 }
 
-json server_json(const Server& s) {
+}  // namespace
+
+json to_json(const Server& s) {
   json out = json::object();
   if (s.participant_guid) out["participant-guid"] = *s.participant_guid;
   if (s.participant_name) out["participant-name"] = *s.participant_name;
@@ -166,6 +168,8 @@ json server_json(const Server& s) {
   if (s.writer_guid) out["writer-guid"] = *s.writer_guid;
   return out;
 }
+
+namespace {
 
 json usb_json(const Usb& u) {
   json out = {{"bus", u.bus},       {"address", u.address}, {"port-path", u.port_path},
@@ -206,7 +210,7 @@ json to_json(const Device& d) {
   put(key::recovery, d.recovery);
   put(key::first_seen, d.first_seen);
   put(key::last_seen, d.last_seen);
-  if (d.server) out[key::server] = server_json(*d.server);
+  if (d.server) out[key::server] = to_json(*d.server);
   if (d.usb) out[key::usb] = usb_json(*d.usb);
   if (!d.warnings.empty()) out[key::warnings] = d.warnings;
   put(key::merged_into, d.merged_into);

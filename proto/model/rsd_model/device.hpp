@@ -99,6 +99,7 @@ struct Device {
 };
 
 nlohmann::json to_json(const Device& device);
+nlohmann::json to_json(const Server& server);  // the "server" part alone (kept per announcer)
 // Never throws (see the round trip above). Callers that need a device check first that
 // `doc` is an object with a string "id"; anything else gives an empty Device.
 Device device_from_json(const nlohmann::json& doc);
