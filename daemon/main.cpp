@@ -1,13 +1,13 @@
 // rs-discoveryd: flags and config -> wiring -> signal and timer loop. Nothing else.
 #include "api/api_server.hpp"
 #include "config/config.hpp"
-#include "dds/domain_session.hpp"
 #include "log/log.hpp"
 #include "service/domain_set.hpp"
 #include "service/listen_sockets.hpp"
 #include "service/service.hpp"
+#include "service/sources_status.hpp"
+#include "service/usb_watch.hpp"
 #include "table/shared_table.hpp"
-#include "usb/usb_source.hpp"
 
 #include <malloc.h>
 #include <poll.h>
@@ -19,7 +19,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <memory>
 #include <string>
 #include <vector>
 
@@ -105,28 +104,14 @@ int main(int argc, char** argv) {
     rsd::log::error(e.what());
     return 1;
   }
-  rsd::service::Service service(table, domains, config, std::vector<std::string>(argv, argv + argc));
+  // Local cameras, listed before the API opens; without USB access the source
+  // logs why and DDS carries on.
+  rsd::service::UsbWatch usb(table);
+  usb.apply(config.usb);
+  rsd::service::Service service(table, domains, usb, config, std::vector<std::string>(argv, argv + argc));
 
-  // Local cameras; without USB access the source logs why and DDS carries on.
-  std::unique_ptr<rsd::usb::UsbSource> usb;
-  if (config.usb) {
-    usb = std::make_unique<rsd::usb::UsbSource>(table);
-    usb->start();
-  }
-
-  rsd::api::StatusSources status;
-  status.version = RSD_VERSION;
-  status.domains = [&domains] { return domains.status(); };
-  status.describe = [&domains, wait = std::chrono::seconds(config.describe_timeout_s)](const std::string& id) {
-    return domains.describe(id, wait);
-  };
-  if (usb) status.usb = [&usb] { return usb->status(); };
-  if (usb)
-    service.usb_watched([&usb] {
-      const auto state = usb->status().state;
-      return state == "hotplug" || state == "polling";
-    });
-  rsd::api::ApiServer api(table, status);
+  const rsd::service::SourcesStatus status(domains, usb, std::chrono::seconds(config.describe_timeout_s));
+  rsd::api::ApiServer api(table, status, RSD_VERSION);
   rsd::api::ApiOptions api_options;
   api_options.unix_socket = config.socket_path;
   api_options.http_host = config.http_host;
@@ -196,7 +181,7 @@ int main(int argc, char** argv) {
   // Streams first (they wait on the table), then listeners, then DDS.
   table.close();
   api.stop();
-  if (usb) usb->stop();
+  usb.stop();
   domains.stop();
   close(signal_fd);
   return 0;

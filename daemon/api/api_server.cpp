@@ -53,7 +53,8 @@ void send_error(httplib::Response& res, int status, const std::string& message) 
 
 struct ApiServer::Impl {
   SharedTable& table;
-  StatusSources status;
+  const StatusSource& status;
+  const std::string version;
   ApiOptions options;
 
   struct Slot {
@@ -78,11 +79,10 @@ struct ApiServer::Impl {
   std::mutex requests_mutex;
   std::map<int, std::uint64_t> requests_by_status;
 
-  Impl(SharedTable& t, StatusSources s) : table(t), status(std::move(s)) {}
+  Impl(SharedTable& t, const StatusSource& s, std::string v) : table(t), status(s), version(std::move(v)) {}
 
   std::vector<DomainStatus> domains() const {
-    std::vector<DomainStatus> out;
-    if (status.domains) out = status.domains();
+    std::vector<DomainStatus> out = status.domains();
     std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.domain < b.domain; });
     return out;
   }
@@ -268,14 +268,13 @@ void ApiServer::Impl::handle_health(const httplib::Request& req, httplib::Respon
   const bool done = complete(domains());
   auto snap = table.snapshot();
   nlohmann::json usb = {{"state", "off"}};
-  if (status.usb) {
-    const auto u = status.usb();
-    usb = {{"state", u.state}, {"devices", u.devices}};
-    if (!u.error.empty()) usb["error"] = u.error;
+  if (const auto u = status.usb()) {
+    usb = {{"state", u->state}, {"devices", u->devices}};
+    if (!u->error.empty()) usb["error"] = u->error;
   }
   send_json(res, 200,
             {{"status", "ok"},
-             {"version", status.version},
+             {"version", version},
              {"devices", snap.devices.size()},
              {"generation", snap.generation},
              // "ok" says the daemon works; this says whether its device count is
@@ -287,9 +286,9 @@ void ApiServer::Impl::handle_health(const httplib::Request& req, httplib::Respon
 void ApiServer::Impl::handle_metrics(const httplib::Request& req, httplib::Response& res) {
   if (auto err = check_params("/metrics", req.params, {})) return send_error(res, 400, *err);
   MetricsInput in;
-  in.version = status.version;
+  in.version = version;
   in.domains = domains();
-  if (status.usb) in.usb = status.usb();
+  in.usb = status.usb();
   auto snap = table.snapshot();
   in.devices_per_domain = count_by_domain(snap.devices);
   in.devices_total = snap.devices.size();
@@ -364,7 +363,7 @@ void ApiServer::Impl::handle_events(const httplib::Request& req, httplib::Respon
     st->pending += resync_message(st->cursor, "unknown Last-Event-ID; re-list /v1/devices");
   } else if (!since) {
     st->cursor = table.generation();
-    nlohmann::json hello = {{"generation", st->cursor}, {"version", status.version}};
+    nlohmann::json hello = {{"generation", st->cursor}, {"version", version}};
     st->pending += sse_message("hello", st->cursor, dump(hello));
   } else {
     st->cursor = *since;  // the provider replays from here, or tells the client to resync
@@ -559,8 +558,8 @@ void ApiServer::Impl::stop_locked() {
   started = false;
 }
 
-ApiServer::ApiServer(SharedTable& table, StatusSources status)
-    : impl_(std::make_unique<Impl>(table, std::move(status))) {}
+ApiServer::ApiServer(SharedTable& table, const StatusSource& status, std::string version)
+    : impl_(std::make_unique<Impl>(table, status, std::move(version))) {}
 
 ApiServer::~ApiServer() { stop(); }
 

@@ -1,11 +1,9 @@
 // The read-only JSON API, served the same over a Unix socket and over HTTP.
 #pragma once
 
-#include "dds/domain_status.hpp"
+#include "status/status_source.hpp"
 #include "table/shared_table.hpp"
-#include "usb/usb_status.hpp"
 
-#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -32,20 +30,11 @@ struct ApiOptions {
   int keepalive_ms = 15000;
 };
 
-// Everything the API shows that is not the device table itself.
-struct StatusSources {
-  std::function<std::vector<DomainStatus>()> domains;
-  // Empty when USB is turned off (--no-usb / "usb": false).
-  std::function<usb::UsbStatus()> usb;
-  std::string version;
-  // Camera Discovery of one device by id (GET /v1/devices/{id}/description);
-  // blocks up to the daemon's describe timeout. Empty: no DDS, nothing to describe.
-  std::function<DeviceDescription(const std::string& id)> describe;
-};
-
 class ApiServer {
  public:
-  ApiServer(SharedTable& table, StatusSources status);
+  // `status` is everything the API shows that is not the device table itself
+  // (domains, USB, descriptions); it must outlive the server.
+  ApiServer(SharedTable& table, const StatusSource& status, std::string version);
   ~ApiServer();
   ApiServer(const ApiServer&) = delete;
   ApiServer& operator=(const ApiServer&) = delete;

@@ -33,8 +33,9 @@ std::string status_text(std::string_view phase, std::size_t devices, const std::
   return text;
 }
 
-Service::Service(const SharedTable& table, DomainSet& domains, Config config, std::vector<std::string> args)
-    : table_(table), domains_(domains), config_(std::move(config)), args_(std::move(args)) {
+Service::Service(const SharedTable& table, DomainSet& domains, UsbWatch& usb, Config config,
+                 std::vector<std::string> args)
+    : table_(table), domains_(domains), usb_(usb), config_(std::move(config)), args_(std::move(args)) {
   if (notifier_.active())
     log::debug("service: notifying the service manager" +
                (notifier_.watchdog() ? "; watchdog every " + std::to_string(notifier_.watchdog()->count()) + " us"
@@ -68,8 +69,10 @@ std::string Service::current_status(bool ready) {
   std::string note = note_;
   std::string why;
   if (!healthy(&why)) note += (note.empty() ? "" : "; ") + why;
+  // USB is named only while it is watched: not when off, nor when unavailable here.
+  const auto usb = usb_.status();
   return status_text(ready ? "" : reloading_ ? "reloading" : "starting", device_count_, domains_.ids(),
-                     config_.usb && usb_watched_ && usb_watched_(), note);
+                     usb && usb->watching(), note);
 }
 
 Service::Clock::duration Service::tick(Clock::time_point now) {
@@ -137,7 +140,6 @@ void Service::reload() {
   std::vector<std::string> restart_only;
   if (next.socket_path != config_.socket_path) restart_only.push_back("socket");
   if (next.http_host != config_.http_host || next.http_port != config_.http_port) restart_only.push_back("http");
-  if (next.usb != config_.usb) restart_only.push_back("usb");
   if (next.participant_name != config_.participant_name) restart_only.push_back("participant-name");
   if (next.cyclonedds_config != config_.cyclonedds_config) restart_only.push_back("cyclonedds-config");
   if (next.max_devices_per_participant != config_.max_devices_per_participant)
@@ -151,6 +153,9 @@ void Service::reload() {
 
   note_ = change.failed.empty() ? "" : "reload could not join " + join(change.failed, "; ");
   std::vector<std::string> what;
+  // USB on or off, live: off takes the USB devices out of the table.
+  if (usb_.apply(next.usb)) what.push_back(next.usb ? "USB watched" : "USB no longer watched");
+  config_.usb = next.usb;
   if (!change.joined.empty()) {
     std::vector<std::string> j;
     for (int d : change.joined) j.push_back(std::to_string(d));
@@ -161,7 +166,7 @@ void Service::reload() {
     for (int d : change.left) l.push_back(std::to_string(d));
     what.push_back("left domain(s) " + join(l, ","));
   }
-  log::notice("reload applied: " + (what.empty() ? std::string("no domain changes") : join(what, ", ")) +
+  log::notice("reload applied: " + (what.empty() ? std::string("no source changes") : join(what, ", ")) +
               "; domains now " + join_ints(config_.domains));
 }
 

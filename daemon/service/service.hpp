@@ -7,11 +7,11 @@
 #include "config/config.hpp"
 #include "service/domain_set.hpp"
 #include "service/notifier.hpp"
+#include "service/usb_watch.hpp"
 #include "table/shared_table.hpp"
 
 #include <chrono>
 #include <cstdint>
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -29,15 +29,13 @@ class Service {
 
   // `args` is the command line the daemon started with: a reload parses it
   // again, so flags keep winning over the re-read config file.
-  Service(const SharedTable& table, DomainSet& domains, Config config, std::vector<std::string> args);
+  Service(const SharedTable& table, DomainSet& domains, UsbWatch& usb, Config config,
+          std::vector<std::string> args);
 
   void api_listening();  // the last READY=1 condition besides the domains
-  // Whether the USB source watches USB now (configured, and not unavailable):
-  // STATUS= names USB only then. Unset: USB is not named.
-  void usb_watched(std::function<bool()> watching) { usb_watched_ = std::move(watching); }
   // SIGHUP: re-reads the configuration and applies what can change live (the
-  // domains and the log level). An invalid configuration keeps the running one
-  // and says why, in the log and in STATUS=.
+  // domains, USB on or off, the log level). An invalid configuration keeps the
+  // running one and says why, in the log and in STATUS=.
   void reload();
   void stopping();  // STOPPING=1
 
@@ -54,10 +52,10 @@ class Service {
 
   const SharedTable& table_;
   DomainSet& domains_;
+  UsbWatch& usb_;
   Config config_;
   std::vector<std::string> args_;
   Notifier notifier_;
-  std::function<bool()> usb_watched_;
 
   bool api_up_ = false;
   bool ready_sent_ = false;  // false at start and during a reload: READY=1 is owed

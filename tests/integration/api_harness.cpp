@@ -19,6 +19,31 @@
 #include <mutex>
 #include <string>
 
+namespace {
+
+// The sources' status as the test sets it: domains from stdin, no USB, nothing to describe.
+class HarnessStatus final : public rsd::StatusSource {
+ public:
+  void set_domains(std::vector<rsd::DomainStatus> next) {
+    std::lock_guard lock(mutex_);
+    domains_ = std::move(next);
+  }
+  std::vector<rsd::DomainStatus> domains() const override {
+    std::lock_guard lock(mutex_);
+    return domains_;
+  }
+  std::optional<rsd::UsbStatus> usb() const override { return std::nullopt; }
+  rsd::DeviceDescription describe(const std::string&) const override {
+    return {rsd::DeviceDescription::Outcome::not_found, {}, "the harness describes no devices"};
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<rsd::DomainStatus> domains_;
+};
+
+}  // namespace
+
 int main(int argc, char** argv) {
   rsd::api::ApiOptions options;
   std::size_t log_capacity = 4096;
@@ -47,16 +72,8 @@ int main(int argc, char** argv) {
   rsd::log::set_level(rsd::log::Level::debug);
 
   rsd::SharedTable table(log_capacity, first_generation);
-  std::mutex domains_mutex;
-  std::vector<rsd::DomainStatus> domains;
-  rsd::api::StatusSources sources;
-  sources.version = "0.0.0-harness";
-  sources.domains = [&] {
-    std::lock_guard lock(domains_mutex);
-    return domains;
-  };
-
-  rsd::api::ApiServer server(table, sources);
+  HarnessStatus sources;
+  rsd::api::ApiServer server(table, sources, "0.0.0-harness");
   try {
     server.start(options);
   } catch (const std::exception& e) {
@@ -87,8 +104,7 @@ int main(int argc, char** argv) {
           s.complete = d.value("complete", true);
           next.push_back(s);
         }
-        std::lock_guard lock(domains_mutex);
-        domains = next;
+        sources.set_domains(std::move(next));
       } else if (cmd == "stop") {
         break;
       }

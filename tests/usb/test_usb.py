@@ -351,6 +351,45 @@ def test_no_usb_flag_and_config(bed, usb_daemon, tmp_path):
     assert d.get_json("/healthz")["usb"] == {"state": "off"} == d2.get_json("/healthz")["usb"]
 
 
+def test_reload_turns_usb_off_and_on_live(bed, usb_daemon, tmp_path):
+    """`"usb": false` then `true` in the config file, each applied by SIGHUP (systemctl
+    reload): the USB cameras leave the table and come back, without a restart."""
+    bed.plug("root-hubs")
+    bed.plug("d455-usb3")
+    config = tmp_path / "config.json"
+    config.write_text(json.dumps({"usb": True}))
+    d, _ = usb_daemon(extra=["--config", str(config)])
+    wait_for(lambda: d.device_ids() == [D455_ID], 5, what="the D455 listed")
+    events = TimedEvents(d)
+
+    config.write_text(json.dumps({"usb": False}))
+    d.signal(signal.SIGHUP)
+    events.expect("removed", D455_ID)
+    wait_for(lambda: d.get_json("/healthz")["usb"] == {"state": "off"}, 5, what="/healthz usb off")
+    assert d.device_ids() == []
+    assert "rsd_usb_devices" not in d.request("/metrics")[2].decode()
+    # Off means not watched: a camera plugged in meanwhile is not listed...
+    d435 = bed.plug("d435-usb2")
+    wait_for(lambda: "reload applied: USB no longer watched" in d.log(), 5, what="the reload logged")
+    assert d.device_ids() == []
+
+    config.write_text(json.dumps({"usb": True}))
+    d.signal(signal.SIGHUP)
+    # ...and on again, every camera present is listed, then hotplug is followed again.
+    back = {events.next()["json"]["id"], events.next()["json"]["id"]}
+    assert back == {D455_ID, D435_ID}
+    wait_for(lambda: d.get_json("/healthz")["usb"] == {"state": "hotplug", "devices": 2}, 5,
+             what="/healthz usb watched again")
+    assert d.device_ids() == sorted([D455_ID, D435_ID])
+    bed.unplug(d435)
+    events.expect("removed", D435_ID)
+    assert d.get_json("/healthz")["usb"] == {"state": "hotplug", "devices": 1}
+    log = d.log()
+    assert "reload applied: USB watched" in log
+    assert "takes effect on restart" not in log
+    events.close()
+
+
 def test_without_usb_access_logs_one_line_and_serves_dds(bed, usb_daemon, realdds_server):
     # An empty bus: no /dev/bus/usb at all, as in a container without USB passed in.
     d, domain = usb_daemon()

@@ -1,0 +1,28 @@
+// The StatusSource the API reads: the joined DDS domains and the USB watcher, as
+// plain status values. The service owns both sources; this only asks them.
+#pragma once
+
+#include "service/domain_set.hpp"
+#include "service/usb_watch.hpp"
+#include "status/status_source.hpp"
+
+#include <chrono>
+
+namespace rsd::service {
+
+class SourcesStatus final : public StatusSource {
+ public:
+  SourcesStatus(const DomainSet& domains, const UsbWatch& usb, std::chrono::milliseconds describe_wait)
+      : domains_(domains), usb_(usb), describe_wait_(describe_wait) {}
+
+  std::vector<DomainStatus> domains() const override { return domains_.status(); }
+  std::optional<UsbStatus> usb() const override { return usb_.status(); }
+  DeviceDescription describe(const std::string& id) const override { return domains_.describe(id, describe_wait_); }
+
+ private:
+  const DomainSet& domains_;
+  const UsbWatch& usb_;
+  std::chrono::milliseconds describe_wait_;
+};
+
+}  // namespace rsd::service

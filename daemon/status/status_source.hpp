@@ -1,0 +1,30 @@
+// The one interface through which frontends see the sources besides the table:
+// plain status values, asked for at request time from any thread. The service
+// implements it over the DDS domains and the USB watcher it owns; the API knows
+// nothing else about them (no DDS or USB header), and a test harness can stand in.
+#pragma once
+
+#include "status/device_description.hpp"
+#include "status/domain_status.hpp"
+#include "status/usb_status.hpp"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace rsd {
+
+class StatusSource {
+ public:
+  virtual ~StatusSource() = default;
+
+  // Every joined domain, in no particular order.
+  virtual std::vector<DomainStatus> domains() const = 0;
+  // Nothing when USB is turned off (--no-usb, "usb": false), now.
+  virtual std::optional<UsbStatus> usb() const = 0;
+  // Camera Discovery of the device `id` (an entry of the table); blocks up to the
+  // daemon's describe timeout.
+  virtual DeviceDescription describe(const std::string& id) const = 0;
+};
+
+}  // namespace rsd
