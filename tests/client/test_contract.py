@@ -137,3 +137,25 @@ def test_default_socket_of_a_user_without_runtime_dir_is_found_by_both_clients(d
         daemon.terminate()
         daemon.wait(10)
         os.unlink(config)
+
+
+def test_stream_messages_and_errors_validate_against_the_spec(daemon, domain):
+    sys.path.insert(0, os.path.join(SOURCE, "tests", "integration"))
+    from api_util import SSEStream, schema_validator, validate_response
+
+    d = daemon([domain])
+    hello = SSEStream(d.socket)
+    msg = hello.next()
+    assert msg["event"] == "hello"
+    schema_validator("#/components/schemas/Hello").validate(json.loads(msg["data"]))
+    hello.conn.close()
+    resync = SSEStream(d.socket, headers={"Last-Event-ID": "not-ours"})
+    msg = resync.next()
+    assert msg["event"] == "resync"
+    schema_validator("#/components/schemas/Resync").validate(json.loads(msg["data"]))
+    resync.conn.close()
+    for path, route in (("/healthz?x=1", "/healthz"), ("/v1/devices/a?x=1", "/v1/devices/{id}"),
+                        ("/v1/domains?x=1", "/v1/domains")):
+        status, _, body = d.request(path)
+        assert status == 400
+        validate_response(route, 400, json.loads(body))
