@@ -116,7 +116,7 @@ std::shared_ptr<DescriptionFetcher::Fetch> DescriptionFetcher::begin(const std::
     fetch = slot;
   }
   ++started_;
-  log::debug("domain " + std::to_string(domain_) + ": subscribing to " + topic_root + "/notification");
+  log::debug([&] { return log::domain_prefix(domain_) + "subscribing to " + topic_root + "/notification"; });
   if (!subscribe(*fetch, participant)) {
     std::lock_guard lock(mutex_);
     if (!fetch->done) {
@@ -203,7 +203,7 @@ void DescriptionFetcher::take(Fetch& fetch, dds_entity_t reader) {
     if (static_cast<std::size_t>(n) < kBatch) break;
   }
   if (completed) {
-    log::info("domain " + std::to_string(domain_) + ": described " + fetch.topic_root);
+    log::info(log::domain_prefix(domain_) + "described " + fetch.topic_root);
     changed_.notify_all();
   }
 }
@@ -233,7 +233,7 @@ void DescriptionFetcher::tick(Clock::time_point now,
                   "the camera's server sent no complete description within " +
                       std::to_string(std::chrono::duration_cast<std::chrono::seconds>(fetch_timeout_).count()) +
                       " s"};
-      log::warning("domain " + std::to_string(domain_) + ": no complete description from " + f.topic_root);
+      log::warning(log::domain_prefix(domain_) + "no complete description from " + f.topic_root);
       finished_.push_back(it->second);
       it = fetches_.erase(it);
       expired = true;

@@ -24,13 +24,14 @@ std::string participant_of(const std::string& writer_guid) {
 DomainBook::DomainBook(SharedTable& table, BookOptions options)
     : table_(table), options_(std::move(options)), lost_(options_.lost) {}
 
-std::string DomainBook::prefix() const { return "domain " + std::to_string(options_.domain) + ": "; }
+std::string DomainBook::prefix() const { return log::domain_prefix(options_.domain); }
 
 void DomainBook::writer_matched(Handle writer, WriterIdentity identity, Clock::time_point now) {
   if (writers_.count(writer)) return;
-  if (log::enabled(log::Level::debug))
-    log::debug(prefix() + "writer " + identity.guid + " of " + identity.participant_guid + " (" +
-               identity.participant_name + ") matched");
+  log::debug([&] {
+    return prefix() + "writer " + identity.guid + " of " + identity.participant_guid + " (" +
+           identity.participant_name + ") matched";
+  });
   writers_.emplace(writer, Writer{std::move(identity), now, false});
 }
 

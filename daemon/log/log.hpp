@@ -4,6 +4,7 @@
 #pragma once
 
 #include <chrono>
+#include <concepts>
 #include <cstdio>
 #include <mutex>
 #include <string>
@@ -25,6 +26,29 @@ inline void warning(std::string_view m) { write(Level::warning, m); }
 inline void notice(std::string_view m) { write(Level::notice, m); }
 inline void info(std::string_view m) { write(Level::info, m); }
 inline void debug(std::string_view m) { write(Level::debug, m); }
+
+// The lazy forms: `make` (a lambda returning the message) runs only when the
+// level is on, so a line on a hot path costs one atomic load while it is off.
+// Use them where the message is built for every request, message or device:
+//   log::debug([&] { return "api: " + req.method + " " + req.target; });
+template <class Make>
+  requires std::invocable<Make&>
+void write(Level level, Make&& make) {
+  if (enabled(level)) write(level, std::string_view(make()));
+}
+template <class Make>
+  requires std::invocable<Make&>
+void info(Make&& make) {
+  write(Level::info, make);
+}
+template <class Make>
+  requires std::invocable<Make&>
+void debug(Make&& make) {
+  write(Level::debug, make);
+}
+
+// "domain 5: ", the start of every line about one DDS domain, spelled once.
+inline std::string domain_prefix(int domain) { return "domain " + std::to_string(domain) + ": "; }
 
 // Lets one line per key through per interval and counts what it held back, so a
 // peer flooding bad messages cannot flood the journal; the next line that gets

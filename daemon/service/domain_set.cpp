@@ -49,7 +49,7 @@ DomainSet::Change DomainSet::apply(const std::vector<int>& domains) {
   for (auto& s : leaving) {
     s->stop();            // DDS entities gone: no listener can add a device after this
     s->forget_devices();  // then its devices leave the table
-    log::notice("domain " + std::to_string(s->domain()) + ": left (no longer configured)");
+    log::notice(log::domain_prefix(s->domain()) + "left (no longer configured)");
   }
   for (int d : wanted) {
     if (sessions_.count(d)) continue;
@@ -57,8 +57,8 @@ DomainSet::Change DomainSet::apply(const std::vector<int>& domains) {
     try {
       session->start();
     } catch (const std::exception& e) {
-      change.failed.push_back("domain " + std::to_string(d) + ": " + e.what());
-      log::error("domain " + std::to_string(d) + ": cannot join: " + e.what());
+      change.failed.push_back(log::domain_prefix(d) + e.what());
+      log::error(log::domain_prefix(d) + "cannot join: " + e.what());
       continue;
     }
     change.joined.push_back(d);
