@@ -28,6 +28,7 @@ targets are met on this machine, this time.
 """
 import argparse
 import datetime
+import hashlib
 import http.client
 import json
 import os
@@ -194,9 +195,23 @@ class Bench:
         self.mode = "smoke" if args.smoke else "quick" if args.quick else "full"
         self.p = MODES[self.mode]
         self.build = os.path.abspath(args.build)
-        conftest.DAEMON = os.path.join(self.build, "daemon", "rs-discoveryd")
         self.tmp = tempfile.mkdtemp(prefix="rsd-bench-")
         os.chmod(self.tmp, 0o755)
+        # The binaries are copied at the start: a rebuild of the tree during the run (the
+        # machine is shared) must not swap them between one comparison and the next.
+        self.binaries = {}
+        bindir = os.path.join(self.tmp, "bin")
+        os.makedirs(bindir)
+        for name, rel in (("rs-discoveryd", ("daemon", "rs-discoveryd")), ("rs-discover", ("client", "rs-discover"))):
+            src = os.path.join(self.build, *rel)
+            dst = os.path.join(bindir, name)
+            shutil.copy2(src, dst)
+            with open(dst, "rb") as f:
+                self.binaries[name] = {"built": datetime.datetime.fromtimestamp(
+                    os.path.getmtime(src), datetime.timezone.utc).isoformat(timespec="seconds"),
+                    "sha256": hashlib.sha256(f.read()).hexdigest()[:16]}
+        conftest.DAEMON = os.path.join(bindir, "rs-discoveryd")
+        self.cli = os.path.join(bindir, "rs-discover")
         self.locks = conftest.DomainLocks()
         self.cleanup = []
         self.results = {}
@@ -333,7 +348,7 @@ class Bench:
         return {"mode": self.mode, "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
                 "commit": git("rev-parse", "--short", "HEAD"),
                 "dirty_tree": bool(git("status", "--porcelain", "--untracked-files=no")),
-                "build": self.build, "build_type": self._build_type(), "nproc": os.cpu_count(),
+                "build": self.build, "build_type": self._build_type(), "binaries": self.binaries, "nproc": os.cpu_count(),
                 "loadavg_end": list(os.getloadavg()), "seconds": round(time.time() - started, 1),
                 "devices": self.p["servers"] * self.p["per_server"],
                 "note": "shared 2-core machine (other engineers build and test on it): numbers are noisy; "
@@ -489,7 +504,7 @@ http {{
 
     # -- cold CLI ---------------------------------------------------------------------------
     def bench_cli(self):
-        cli = os.path.join(self.build, "client", "rs-discover")
+        cli = self.cli
         out = os.path.join(self.tmp, "hyperfine.json")
         cmds = {"rs-discover list (unix)": f"{cli} --endpoint unix:{self.main.socket} list",
                 "rs-discover list (http)": f"{cli} --endpoint http://127.0.0.1:{self.main.port} list",
