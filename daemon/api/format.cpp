@@ -142,7 +142,7 @@ nlohmann::json domain_status_json(const DomainStatus& s) {
   nlohmann::json rejected = nlohmann::json::object();
   for (const auto& [reason, count] : s.rejected) rejected[reason] = count;
   return {{"domain", s.domain},
-          {"state", s.state},
+          {"state", to_string(s.state)},
           {"participant-guid", s.participant_guid},
           {"error", s.error},
           {"devices", s.devices},
@@ -222,8 +222,8 @@ std::string render_metrics(const MetricsInput& in) {
 
   w.family("rsd_domain_up", "gauge", "1 when the domain's DDS side is running, by state.");
   for (const auto& d : in.domains)
-    w.sample("rsd_domain_up", {{"domain", std::to_string(d.domain)}, {"state", d.state}},
-             d.state == "running" ? 1 : 0);
+    w.sample("rsd_domain_up", {{"domain", std::to_string(d.domain)}, {"state", std::string(to_string(d.state))}},
+             d.state == DomainState::running ? 1 : 0);
 
   w.family("rsd_messages_accepted_total", "counter", "device-info messages taken into the table.");
   for (const auto& d : in.domains)

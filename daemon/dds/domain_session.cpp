@@ -76,7 +76,7 @@ void DomainSession::start() {
     const std::string why = dds_error(("cannot create DDS domain " + std::to_string(d)).c_str(), domain_);
     domain_ = 0;
     std::lock_guard lock(mutex_);
-    state_ = "failed";
+    state_ = DomainState::failed;
     error_ = why + (config ? " (check the cyclonedds configuration)" : "");
     throw std::runtime_error(error_);
   }
@@ -90,7 +90,7 @@ void DomainSession::start() {
     dds_delete(domain_);
     domain_ = 0;
     std::lock_guard lock(mutex_);
-    state_ = "failed";
+    state_ = DomainState::failed;
     error_ = why;
     throw std::runtime_error(why);
   }
@@ -116,7 +116,7 @@ void DomainSession::start() {
     topic_ = 0;
     stop();
     std::lock_guard lock(mutex_);
-    state_ = "failed";
+    state_ = DomainState::failed;
     error_ = why;
     throw std::runtime_error(why);
   }
@@ -124,7 +124,7 @@ void DomainSession::start() {
   fetcher_.set_participant(participant_);
   std::lock_guard lock(mutex_);
   participant_guid_ = guid_to_string(guid);
-  state_ = "settling";
+  state_ = DomainState::settling;
   error_.clear();
   log::info("domain " + std::to_string(d) + ": joined as participant " + participant_guid_ +
             "; reading device-info after " + std::to_string(options_.settle.count()) + " ms of discovery");
@@ -137,7 +137,7 @@ void DomainSession::stop() {
   else if (participant_ > 0) dds_delete(participant_);
   domain_ = participant_ = topic_ = participant_reader_ = 0;
   std::lock_guard lock(mutex_);
-  state_ = "stopped";
+  state_ = DomainState::stopped;
   participant_guid_.clear();
   book_.participant_made();  // the next participant hears everyone anew
 }
@@ -178,14 +178,14 @@ void DomainSession::create_reader() {
   dds_delete_qos(qos);
   if (reader < 0) {
     std::lock_guard lock(mutex_);
-    state_ = "failed";
+    state_ = DomainState::failed;
     error_ = dds_error("cannot create the device-info reader", reader);
     log::error("domain " + std::to_string(options_.domain) + ": " + error_);
     return;
   }
   reader_ = reader;
   std::lock_guard lock(mutex_);
-  state_ = "running";
+  state_ = DomainState::running;
   const auto now = Clock::now();
   if (!first_reader_at_) first_reader_at_ = now;
   book_.reader_made(now);
@@ -382,7 +382,7 @@ DomainStatus DomainSession::status() const {
   for (const auto& [reason, n] : fetcher_.rejected()) s.rejected[reason] += n;
   s.rebuilds = rebuilds_;
   s.refreshes = refreshes_;
-  s.complete = state_ == "failed" ||
+  s.complete = state_ == DomainState::failed ||
                (first_reader_at_ && Clock::now() - *first_reader_at_ >= options_.initial_grace);
   return s;
 }

@@ -115,7 +115,7 @@ class DomainSession {
   Clock::time_point joined_at_{};
 
   mutable std::mutex mutex_;  // everything below; listener threads and the main loop
-  std::string state_ = "stopped";
+  DomainState state_ = DomainState::stopped;
   std::string error_;
   std::string participant_guid_;
   DomainBook book_;

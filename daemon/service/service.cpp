@@ -52,7 +52,7 @@ bool Service::healthy(std::string* why) const {
     return false;
   }
   for (const auto& d : domains_.status()) {
-    if (d.state == "failed") {
+    if (d.state == DomainState::failed) {
       if (why) *why = "domain " + std::to_string(d.domain) + " failed: " + d.error;
       return false;
     }

@@ -36,7 +36,7 @@ constexpr std::optional<DomainState> parse_domain_state(std::string_view name) {
 
 struct DomainStatus {
   int domain = 0;
-  std::string state;             // to_string() of a DomainState
+  DomainState state = DomainState::stopped;
   std::string participant_guid;  // ours, "" until the participant exists
   std::string error;             // why the domain is failed, else ""
   std::size_t devices = 0;       // devices of this domain now in the table

@@ -97,7 +97,7 @@ int main(int argc, char** argv) {
         for (const auto& d : nlohmann::json::parse(rest)) {
           rsd::DomainStatus s;
           s.domain = d.value("domain", 0);
-          s.state = d.value("state", "running");
+          s.state = rsd::parse_domain_state(d.value("state", "running")).value();  // unknown: an error line
           s.participant_guid = d.value("participant-guid", "");
           s.accepted = d.value("accepted", 0u);
           s.rejected = d.value("rejected", std::map<std::string, std::uint64_t>{});

@@ -113,7 +113,7 @@ TEST(ApiJson, ErrorBody) {
 TEST(ApiJson, DomainStatus) {
   rsd::DomainStatus s;
   s.domain = 5;
-  s.state = "running";
+  s.state = rsd::DomainState::running;
   s.participant_guid = "01.02";
   s.devices = 2;
   s.accepted = 10;
@@ -137,12 +137,12 @@ TEST(ApiMetrics, Exposition) {
   in.version = "1.2.3";
   rsd::DomainStatus d0;
   d0.domain = 0;
-  d0.state = "running";
+  d0.state = rsd::DomainState::running;
   d0.accepted = 4;
   d0.rejected = {{"bad-cbor", 2}, {"not-json", 1}};
   rsd::DomainStatus d9;
   d9.domain = 9;
-  d9.state = "failed";
+  d9.state = rsd::DomainState::failed;
   in.domains = {d0, d9};
   in.devices_per_domain = {{0, 3}};
   in.devices_total = 3;
