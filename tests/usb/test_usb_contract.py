@@ -28,6 +28,11 @@ pytestmark = pytest.mark.skipif(not in_umockdev(), reason="run under umockdev-wr
 D435_SERIAL = D435_ID[len("usb-"):]
 
 
+def cli(bed, *args, endpoint):  # noqa: F811
+    """rs-discover under this test's umockdev preload (bed.env() lets a sanitized build run)."""
+    return rs_discover(*args, endpoint=endpoint, env=bed.env())
+
+
 def test_usb2_link_warning_shows_in_every_client(bed, usb_daemon):  # noqa: F811
     bed.plug("root-hubs")
     bed.plug("d435-usb2")
@@ -36,11 +41,11 @@ def test_usb2_link_warning_shows_in_every_client(bed, usb_daemon):  # noqa: F811
     [warning] = dev["warnings"]
     ep = "unix:" + d.socket
 
-    r = rs_discover("list", endpoint=ep)
+    r = cli(bed, "list", endpoint=ep)
     assert r.returncode == 0, r.stderr
     [row] = table(r.stdout)[1]
     assert row["SERIAL"] == D435_SERIAL and row["STATE"] == "warning", r.stdout
-    r = rs_discover("get", D435_SERIAL, endpoint=ep)  # by serial, as a user types it
+    r = cli(bed, "get", D435_SERIAL, endpoint=ep)  # by serial, as a user types it
     assert r.returncode == 0, r.stderr
     assert "State:        warning" in r.stdout
     assert "Warning:      " + warning in r.stdout
@@ -82,6 +87,6 @@ def test_every_kind_of_device_validates_against_the_spec(bed, usb_daemon, realdd
     # The merged camera is one device to every client, with both parts.
     got = rsdiscovery.Client("unix:" + d.socket).get_device(D455_SERIAL)
     assert got["id"] == merged["id"] and got["usb"]["port-path"] == "2-1"
-    assert json.loads(rs_discover("get", "--json", D455_SERIAL, endpoint="unix:" + d.socket).stdout)["id"] == \
+    assert json.loads(cli(bed, "get", "--json", D455_SERIAL, endpoint="unix:" + d.socket).stdout)["id"] == \
         merged["id"]
     server.quit()
