@@ -107,6 +107,7 @@ struct ApiServer::Impl {
   void configure(Listener& svr);
   void handle_devices(const httplib::Request& req, httplib::Response& res);
   void handle_device(const httplib::Request& req, httplib::Response& res);
+  void handle_description(const httplib::Request& req, httplib::Response& res);
   // The devices `name` names: the one with that id, else those with that serial
   // or topic-root.
   std::vector<nlohmann::json> lookup(const std::string& name) const;
@@ -139,6 +140,8 @@ void ApiServer::Impl::configure(Listener& svr) {
   svr.set_write_timeout(5, 0);
 
   svr.Get("/v1/devices", [this](const auto& req, auto& res) { handle_devices(req, res); });
+  // Before the device route, whose `.+` would take ".../description" too.
+  svr.Get(R"(/v1/devices/(.+)/description)", [this](const auto& req, auto& res) { handle_description(req, res); });
   svr.Get(R"(/v1/devices/(.+))", [this](const auto& req, auto& res) { handle_device(req, res); });
   svr.Get("/v1/domains", [this](const auto& req, auto& res) { handle_domains(req, res); });
   svr.Get("/v1/events", [this](const auto& req, auto& res) { handle_events(req, res); });
@@ -248,6 +251,34 @@ void ApiServer::Impl::handle_device(const httplib::Request& req, httplib::Respon
                                      (done ? "" : " (the daemon's first discovery is not complete yet)")},
                        {"status", 404},
                        {"complete", done}});
+}
+
+void ApiServer::Impl::handle_description(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/v1/devices/{id}/description", req.params, {})) return send_error(res, 400, *err);
+  const std::string name = req.matches.size() > 1 ? req.matches[1].str() : "";
+  const auto hits = lookup(name);
+  if (hits.size() != 1)
+    return send_error(res, hits.empty() ? 404 : 409,
+                      hits.empty() ? "no device with id '" + name + "'"
+                                   : std::to_string(hits.size()) + " devices match '" + name + "'; name one by its id");
+  // Blocks this worker until the camera's server has sent its set (a few ms once
+  // asked; the first time for a device) or the describe timeout.
+  const auto answer = status.describe(hits.front().value("id", std::string()));
+  using Outcome = DeviceDescription::Outcome;
+  switch (answer.outcome) {
+    case Outcome::ok:
+      return send_json(res, 200, answer.description);
+    case Outcome::not_found:
+    case Outcome::not_network:
+      return send_error(res, 404, answer.error);
+    case Outcome::recovery:
+      return send_error(res, 409, answer.error);
+    case Outcome::timeout:
+      return send_error(res, 504, answer.error);
+    case Outcome::unavailable:
+      res.set_header("Retry-After", "2");
+      return send_error(res, 503, answer.error);
+  }
 }
 
 void ApiServer::Impl::handle_domains(const httplib::Request& req, httplib::Response& res) {

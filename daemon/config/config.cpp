@@ -65,6 +65,15 @@ std::string read_file(const std::string& path) {
   return text.str();
 }
 
+// A timeout in whole seconds, 1 to 300.
+int parse_seconds(const std::string& text, const std::string& where) {
+  int n = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), n);
+  if (ec != std::errc() || end != text.data() + text.size() || n < 1 || n > 300)
+    throw ConfigError(where + ": must be a whole number of seconds from 1 to 300, not '" + text + "'");
+  return n;
+}
+
 // A device cap: a whole number from 1 to 1,000,000.
 std::size_t parse_limit(const std::string& text, const std::string& where) {
   std::size_t used = 0;
@@ -122,6 +131,24 @@ void apply_config_json(const std::string& text, Config& config) {
       check_log_level(config.log_level, at);
     } else if (key == "cyclonedds-config") {
       config.cyclonedds_config = want_string(key, value);
+    } else if (key == "describe-eagerly") {
+      // true, false, or the domains whose devices are described as they appear
+      if (value.is_boolean()) {
+        config.describe_eagerly_all = value.get<bool>();
+        config.describe_eagerly.clear();
+      } else if (value.is_array()) {
+        config.describe_eagerly_all = false;
+        config.describe_eagerly.clear();
+        for (const auto& d : value) {
+          if (!d.is_number_integer()) throw ConfigError(at + " must be true, false or a list of domain ids");
+          config.describe_eagerly.push_back(parse_domain(std::to_string(d.get<long long>()), at));
+        }
+      } else {
+        throw ConfigError(at + " must be true, false or a list of domain ids");
+      }
+    } else if (key == "describe-timeout") {
+      config.describe_timeout_s = parse_seconds(value.is_number_integer() ? std::to_string(value.get<long long>())
+                                                                         : value.dump(), at);
     } else if (key == "max-devices-per-participant" || key == "max-devices-per-domain") {
       const std::size_t n = parse_limit(value.is_number_integer() ? std::to_string(value.get<long long>())
                                                                  : value.dump(), at);
@@ -129,7 +156,7 @@ void apply_config_json(const std::string& text, Config& config) {
     } else {
       throw ConfigError(where + ": unknown key \"" + key +
                         "\" (known: domains, socket, http, usb, participant-name, log-level, "
-                        "cyclonedds-config, max-devices-per-participant, max-devices-per-domain)");
+                        "cyclonedds-config, max-devices-per-participant, max-devices-per-domain, describe-timeout, describe-eagerly)");
     }
   }
 }
@@ -138,7 +165,8 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
   CommandLine cl;
   Config flags_only;  // collects what the flags set, to apply over the file
   bool set_domains = false, set_socket = false, set_http = false, set_usb = false, set_name = false,
-       set_level = false, set_cyclone = false, set_per_participant = false, set_per_domain = false;
+       set_level = false, set_cyclone = false, set_per_participant = false, set_per_domain = false,
+       set_describe = false, set_eager = false;
   std::string config_file;
   bool explicit_config = false;
   std::vector<int> domains;
@@ -193,6 +221,14 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
     } else if (arg == "--max-devices-per-participant") {
       flags_only.max_devices_per_participant = parse_limit(next(), arg);
       set_per_participant = true;
+    } else if (arg == "--describe-eagerly") {
+      const std::string v = next();
+      if (v == "all") flags_only.describe_eagerly_all = true;
+      else flags_only.describe_eagerly.push_back(parse_domain(v, arg));
+      set_eager = true;
+    } else if (arg == "--describe-timeout") {
+      flags_only.describe_timeout_s = parse_seconds(next(), arg);
+      set_describe = true;
     } else if (arg == "--max-devices-per-domain") {
       flags_only.max_devices_per_domain = parse_limit(next(), arg);
       set_per_domain = true;
@@ -220,6 +256,11 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
   if (set_cyclone) config.cyclonedds_config = flags_only.cyclonedds_config;
   if (set_per_participant) config.max_devices_per_participant = flags_only.max_devices_per_participant;
   if (set_per_domain) config.max_devices_per_domain = flags_only.max_devices_per_domain;
+  if (set_describe) config.describe_timeout_s = flags_only.describe_timeout_s;
+  if (set_eager) {
+    config.describe_eagerly_all = flags_only.describe_eagerly_all;
+    config.describe_eagerly = flags_only.describe_eagerly;
+  }
 
   // The same domain twice would be two participants fighting over one table slot.
   std::set<int> unique(config.domains.begin(), config.domains.end());
@@ -255,14 +296,21 @@ Options:
                              beyond it device-info is refused and counted
       --max-devices-per-domain N
                              devices one DDS domain may hold (default: 1024)
+      --describe-timeout S   how long fetching a network camera's description (streams,
+                             options) from its server may take (default: 30)
+      --describe-eagerly N|all
+                             describe the cameras of domain N (repeat) or of every domain
+                             as they appear, not only when asked (default: when asked)
   -V, --version              print the version and exit
   -h, --help                 print this help and exit
 
 Config file keys: domains, socket, http, usb, participant-name, log-level,
-cyclonedds-config, max-devices-per-participant, max-devices-per-domain (same
-meanings as the flags).
+cyclonedds-config, max-devices-per-participant, max-devices-per-domain,
+describe-timeout, describe-eagerly (true, false or a list of domains; otherwise the
+same meanings as the flags).
 
-API: GET /v1/devices, /v1/devices/{id}, /v1/events (Server-Sent Events),
+API: GET /v1/devices, /v1/devices/{id}, /v1/devices/{id}/description,
+/v1/events (Server-Sent Events),
 /v1/domains, /healthz, /metrics. For example:
   curl --unix-socket /run/rs-discoveryd/api.sock http://localhost/v1/devices
   curl http://127.0.0.1:8035/v1/devices

@@ -118,3 +118,28 @@ TEST(Config, DeviceCaps) {
   }
   EXPECT_THROW(parse({"--max-devices-per-participant", "lots"}), ConfigError);
 }
+
+TEST(Config, DescribeTimeout) {
+  EXPECT_EQ(Config{}.describe_timeout_s, 30);
+  Config c;
+  rsd::apply_config_json(R"({"describe-timeout": 5})", c);
+  EXPECT_EQ(c.describe_timeout_s, 5);
+  for (const char* bad : {R"({"describe-timeout": 0})", R"({"describe-timeout": 301})", R"({"describe-timeout": "5"})"}) {
+    Config x;
+    EXPECT_THROW(rsd::apply_config_json(bad, x), ConfigError) << bad;
+  }
+}
+
+TEST(Config, DescribeEagerly) {
+  Config c;
+  EXPECT_FALSE(c.describe_eagerly_all);
+  rsd::apply_config_json(R"({"describe-eagerly": [0, 5]})", c);
+  EXPECT_EQ(c.describe_eagerly, (std::vector<int>{0, 5}));
+  rsd::apply_config_json(R"({"describe-eagerly": true})", c);
+  EXPECT_TRUE(c.describe_eagerly_all);
+  EXPECT_TRUE(c.describe_eagerly.empty());
+  for (const char* bad : {R"({"describe-eagerly": "yes"})", R"({"describe-eagerly": [300]})"}) {
+    Config x;
+    EXPECT_THROW(rsd::apply_config_json(bad, x), ConfigError) << bad;
+  }
+}
