@@ -110,6 +110,24 @@ TEST(ApiJson, ErrorBody) {
   EXPECT_EQ(body["error"], "no device with id 'x'");
 }
 
+// /v1/domains and /metrics show a domain's state by the names openapi.yaml lists.
+TEST(ApiJson, DomainStateNames) {
+  using rsd::DomainState;
+  const std::pair<DomainState, const char*> names[] = {{DomainState::settling, "settling"},
+                                                      {DomainState::running, "running"},
+                                                      {DomainState::rebuilding, "rebuilding"},
+                                                      {DomainState::failed, "failed"},
+                                                      {DomainState::stopped, "stopped"}};
+  for (const auto& [state, name] : names) {
+    rsd::DomainStatus s;
+    s.state = state;
+    EXPECT_EQ(domain_status_json(s)["state"], name);
+    EXPECT_EQ(rsd::parse_domain_state(name), state);
+  }
+  EXPECT_EQ(rsd::parse_domain_state("Running"), std::nullopt);
+  EXPECT_EQ(rsd::DomainStatus{}.state, DomainState::stopped);
+}
+
 TEST(ApiJson, DomainStatus) {
   rsd::DomainStatus s;
   s.domain = 5;
