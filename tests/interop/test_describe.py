@@ -3,6 +3,8 @@ servers (pyrealsense2's pyrealdds), and against made-up servers (PyPI cyclonedds
 writing the notification topic) for what a real one never does on purpose: never
 answering, never finishing a set, sending garbage."""
 import json
+import os
+import sys
 import threading
 import time
 
@@ -10,6 +12,17 @@ import pytest
 
 from conftest import device_info, wait_for
 from test_realdds import dds_id
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "integration"))
+from api_util import spec  # noqa: E402  (the spec checks live with the API tests)
+from openapi_schema_validator import OAS30Validator  # noqa: E402
+
+
+def check_spec(status, body):
+    """The real answer against proto/openapi.yaml's response for the route."""
+    response = spec()["paths"]["/v1/devices/{id}/description"]["get"]["responses"][str(status)]
+    schema = response["content"]["application/json"]["schema"]
+    OAS30Validator({**schema, "components": spec()["components"]}).validate(body)
 
 SPEC = {
     "streams": [
@@ -35,7 +48,9 @@ TYPE = {"color": "color", "depth": "depth", "ir": "ir", "motion": "motion"}
 
 def describe(d, device_id, via="unix"):
     status, headers, body = d.request(f"/v1/devices/{device_id}/description", via=via, timeout=60)
-    return status, headers, json.loads(body)
+    body = json.loads(body)
+    check_spec(status, body)
+    return status, headers, body
 
 
 def subscriptions(d, topic_root):
