@@ -27,7 +27,9 @@ def domain(domains):
 def test_filters_are_the_daemons_and_ignore_case(daemon, realdds_server, domain):
     d = daemon([domain])
     ep = "unix:" + d.socket
-    # Started before the cameras are up: the waits must see them arrive.
+    # The waits start on a complete table and before the cameras are up, so they must see
+    # them arrive (through their watches), not find them in their first list.
+    wait_for(lambda: d.get_json("/healthz")["complete"], 10, what="the daemon's first discovery over")
     waiting = subprocess.Popen([CLI, "--endpoint", ep, "list", "--product-line", "d400", "--wait", "2",
                                 "--timeout", "30", "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     # --initial: cameras already there when it starts are reported too, so the check does
