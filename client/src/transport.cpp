@@ -116,6 +116,13 @@ Transport::Transport(Endpoint endpoint, ClientOptions options)
 
 Transport::~Transport() = default;
 
+// cpp-httplib 0.18 (Debian trixie) asks for gzip/brotli whenever it was built
+// with them, even with set_decompress(false), and then hands over compressed
+// bytes: every CLI reply was "not a JSON object" there. Saying what we take,
+// explicitly, keeps replies plain with every version (a daemon's own replies are
+// small and local; compression buys nothing).
+const std::pair<std::string, std::string> kIdentity{"Accept-Encoding", "identity"};
+
 std::unique_ptr<httplib::Client> Transport::make_client(std::chrono::milliseconds read_timeout) const {
   std::unique_ptr<httplib::Client> c;
   if (endpoint_.kind == Endpoint::Kind::unix_socket) {
@@ -165,7 +172,7 @@ void Transport::fail_transport(int httplib_error, Clock::duration elapsed,
 
 Reply Transport::get(const std::string& path) {
   if (cancelled_) throw Error(ErrorCode::cancelled, "cancelled");
-  httplib::Headers headers{{"Host", "localhost"}, {"Accept", "application/json"}};
+  httplib::Headers headers{{"Host", "localhost"}, {"Accept", "application/json"}, kIdentity};
   for (int attempt = 0;; ++attempt) {
     bool reused = http_ && http_->is_socket_open();
     if (!http_) {
@@ -252,7 +259,7 @@ void Transport::stream(const std::string& path, const std::string& last_event_id
     }
   } unset{this};
 
-  httplib::Headers headers{{"Host", "localhost"}, {"Accept", "text/event-stream"}};
+  httplib::Headers headers{{"Host", "localhost"}, {"Accept", "text/event-stream"}, kIdentity};
   if (!last_event_id.empty()) headers.emplace("Last-Event-ID", last_event_id);
   Reply bad;  // a non-200 reply, collected for the error
   bool opened = false, refused = false;
