@@ -267,16 +267,8 @@ def test_python_client_from_its_package(system):
     assert json.loads(r.stdout)["status"] == "ok", r.stdout
 
 
-# Known on trixie: cpp-httplib 0.18's client asks for compressed replies although
-# the library turns decompression off, the daemon compresses, and the C++ client
-# cannot parse the body ("did not return a JSON object"). Strict: passing there
-# fails this test until the mark goes.
-CLI_BROKEN_ON_HTTPLIB_018 = pytest.mark.xfail(
-    SUITE == "trixie", strict=True,
-    reason="C++ client with cpp-httplib 0.18 gets compressed replies it does not decompress")
-
-
-@CLI_BROKEN_ON_HTTPLIB_018
+# On trixie this caught cpp-httplib 0.18's client asking for compressed replies
+# the CLI could not read; the client now asks for identity.
 def test_cli_from_its_package(system):
     c = system
     gid = c.run("getent", "group", "rs-discoveryd").stdout.split(":")[2]
