@@ -100,7 +100,11 @@ int shutdown_accepted_connections(const SocketAddress& local) {
     socklen_t optlen = sizeof listening;
     if (getsockopt(fd, SOL_SOCKET, SO_ACCEPTCONN, &listening, &optlen) != 0 || listening) continue;
     if (!same_address(local_address(fd), local)) continue;
-    if (shutdown(fd, SHUT_RDWR) == 0) ++count;
+    // The read side only: a worker idle on the connection sees end-of-file and
+    // lets go, while a request already received (or still in the socket's
+    // buffer) is read, answered and written out in full. SHUT_RDWR cut those
+    // (a client saw an empty reply during a package upgrade, 1 in ~500).
+    if (shutdown(fd, SHUT_RD) == 0) ++count;
   }
   closedir(dir);
   return count;

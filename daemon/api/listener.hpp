@@ -56,8 +56,9 @@ struct SocketAddress {
 };
 SocketAddress local_address(int fd);
 
-// shutdown(2)s, without closing, every connected socket of this process whose
-// local address is `local`: the connections accepted by that listener.
+// shutdown(2)s the read side, without closing, of every connected socket of this
+// process whose local address is `local`: the connections accepted by that
+// listener. Requests already received are still answered.
 // httplib 0.11 parks a worker for up to its keep-alive timeout on an idle
 // connection and only then notices the server stopped; waking it this way lets
 // stop() return at once. Closing is left to httplib, so no fd is closed twice.
