@@ -189,6 +189,7 @@ void DomainBook::sweep(const std::set<Handle>& still_matched, const std::string*
 }
 
 void DomainBook::reader_made(Clock::time_point now) {
+  lost_.reader_made(now);
   writers_.clear();  // handles were per reader; matches come again for the new one
   if (!devices_.empty()) reconcile_at_ = now + options_.reconcile_grace;
 }

@@ -38,8 +38,10 @@ struct BookOptions {
   std::size_t max_devices_per_participant = 128;
   std::size_t max_devices_per_domain = 1024;
   // After the reader or the participant is made anew, a device whose writer has
-  // not matched again by then is gone.
-  std::chrono::milliseconds reconcile_grace{4000};
+  // not matched again by then is gone. Matching a settled participant's writers
+  // takes milliseconds; the grace is also how late a server killed during a
+  // refresh is noticed (it cannot unmatch a reader it never matched).
+  std::chrono::milliseconds reconcile_grace{2000};
   LostServerTimes lost;
 };
 
@@ -72,7 +74,7 @@ class DomainBook {
   void reader_made(Clock::time_point now);
   // A new participant: what it heard about participants is forgotten too.
   void participant_made();
-  void participant_alive(const std::string& guid) { lost_.participant_alive(guid); }
+  void participant_alive(const std::string& guid, Clock::time_point now) { lost_.participant_alive(guid, now); }
   void participant_gone(const std::string& guid) { lost_.participant_gone(guid); }
 
   struct Due {

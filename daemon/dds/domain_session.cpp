@@ -272,8 +272,10 @@ void DomainSession::take_participant_changes(dds_entity_t reader) {
       for (dds_return_t i = 0; i < n; ++i) {
         const auto* p = static_cast<const dds_builtintopic_participant_t*>(samples[static_cast<std::size_t>(i)]);
         const std::string guid = guid_to_string(p->key);
-        if (infos[static_cast<std::size_t>(i)].instance_state == DDS_IST_ALIVE) book_.participant_alive(guid);
+        const bool alive = infos[static_cast<std::size_t>(i)].instance_state == DDS_IST_ALIVE;
+        if (alive) book_.participant_alive(guid, Clock::now());
         else book_.participant_gone(guid);
+        log::debug([&] { return log::domain_prefix(options_.domain) + "participant " + guid + (alive ? " alive" : " gone"); });
       }
     }
     dds_return_loan(reader, samples.data(), n);

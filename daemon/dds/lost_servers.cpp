@@ -4,9 +4,16 @@
 
 namespace rsd::dds {
 
+void LostServers::participant_alive(const std::string& guid, Clock::time_point now) {
+  alive_.insert(guid);
+  if (auto it = lost_.find(guid); it != lost_.end() && !it->second.heard_at) it->second.heard_at = now;
+}
+
 void LostServers::participant_rebuilt() {
   alive_.clear();
   suspects_.clear();
+  reading_since_.reset();
+  for (auto& [guid, lost] : lost_) lost.heard_at.reset();  // the new participant hears it anew
 }
 
 void LostServers::writer_lost(const std::string& participant, Clock::time_point now) {
@@ -25,8 +32,8 @@ LostServers::Verdict LostServers::check(Clock::time_point now) {
       // A refresh made since the loss already served it (no second rebuild
       // 100 ms after the first): its count goes on from that one.
       const bool served = last_refresh_ && *last_refresh_ >= it->second;
-      lost_[it->first] = served ? Lost{it->second, *last_refresh_ + times_.refresh_first * 4, 1}
-                                : Lost{it->second, it->second + times_.refresh_first, 0};
+      lost_[it->first] = served ? Lost{it->second, *last_refresh_ + times_.refresh_again, 1, std::nullopt, 0}
+                                : Lost{it->second, it->second + times_.refresh_first, 0, std::nullopt, 0};
       verdict.newly_lost.push_back(it->first);
     }
     it = suspects_.erase(it);
@@ -37,16 +44,23 @@ LostServers::Verdict LostServers::check(Clock::time_point now) {
       it = lost_.erase(it);
       continue;
     }
-    verdict.refresh = verdict.refresh || now >= it->second.next_refresh;
+    Lost& lost = it->second;
+    const bool blind = now >= lost.next_refresh;
+    // Heard again, with a reader to hear its devices on, and still lost after the grace.
+    const bool stale = lost.heard_at && reading_since_ && lost.heard_refreshes < times_.heard_refreshes &&
+                       now - std::max(*lost.heard_at, *reading_since_) >= times_.rematch_grace;
+    if (stale) ++lost.heard_refreshes;
+    verdict.refresh = verdict.refresh || blind || stale;
     ++it;
   }
   if (!verdict.refresh) return verdict;
   last_refresh_ = now;
   // One refresh serves every lost server; each backs off on its own count.
   for (auto& [guid, lost] : lost_) {
+    if (now < lost.next_refresh) continue;  // served early: its own schedule stands
     ++lost.refreshes;
-    auto wait = times_.refresh_first;
-    for (int i = 0; i < lost.refreshes && wait < times_.refresh_max; ++i) wait *= 4;
+    auto wait = times_.refresh_again;
+    for (int i = 1; i < lost.refreshes && wait < times_.refresh_max; ++i) wait *= 4;
     lost.next_refresh = now + std::min(wait, times_.refresh_max);
   }
   return verdict;

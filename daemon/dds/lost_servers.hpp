@@ -14,9 +14,18 @@
 namespace rsd::dds {
 
 struct LostServerTimes {
-  // The first refresh comes this long after a loss; each next one 4x later, up
-  // to `refresh_max`; a server lost longer than `forget_after` is given up.
+  // The first refresh comes this long after a loss: a participant made during a
+  // cut finds the server the moment the cut heals. Later ones come when the lost
+  // server's participant is heard again but none of its devices follows within
+  // `rematch_grace` of the reader (measured: after a 5 s cut the same Cyclone
+  // participant hears the server's participant again, yet never its writers);
+  // and, in case it is never heard, blindly from `refresh_again` on, 4x later
+  // each time, up to `refresh_max`. A server lost longer than `forget_after` is
+  // given up (a crashed server comes back under another GUID anyway).
   std::chrono::milliseconds refresh_first{500};
+  std::chrono::milliseconds rematch_grace{1000};
+  int heard_refreshes = 3;  // per lost server: a peer that never rematches can't loop us
+  std::chrono::milliseconds refresh_again{std::chrono::seconds(30)};
   std::chrono::milliseconds refresh_max{std::chrono::minutes(10)};
   std::chrono::milliseconds forget_after{std::chrono::minutes(30)};
   // Writers and their participant leave in either order on a lease expiry: a
@@ -31,11 +40,14 @@ class LostServers {
   explicit LostServers(LostServerTimes times = {}) : times_(times) {}
 
   // Cyclone's view of the domain's participants (by GUID).
-  void participant_alive(const std::string& guid) { alive_.insert(guid); }
+  void participant_alive(const std::string& guid, Clock::time_point now);
   void participant_gone(const std::string& guid) { alive_.erase(guid); }
   // A fresh DDS participant hears every peer anew; what it heard is forgotten.
   // Servers already lost stay lost.
   void participant_rebuilt();
+  // The device-info reader exists from `now` (a lost server heard again has
+  // until rematch_grace after both to announce its devices).
+  void reader_made(Clock::time_point now) { reading_since_ = now; }
 
   // A device of `participant` left because its writer did (not by 'stopping').
   void writer_lost(const std::string& participant, Clock::time_point now);
@@ -58,8 +70,10 @@ class LostServers {
  private:
   struct Lost {
     Clock::time_point lost_at;
-    Clock::time_point next_refresh;
-    int refreshes = 0;
+    Clock::time_point next_refresh;  // blind
+    int refreshes = 0;               // blind ones
+    std::optional<Clock::time_point> heard_at;  // its participant is alive again
+    int heard_refreshes = 0;
   };
 
   LostServerTimes times_;
@@ -67,6 +81,7 @@ class LostServers {
   std::map<std::string, Clock::time_point> suspects_;   // participant -> when its writers went
   std::map<std::string, Lost> lost_;                    // by participant GUID
   std::optional<Clock::time_point> last_refresh_;
+  std::optional<Clock::time_point> reading_since_;  // the current participant's reader
 };
 
 }  // namespace rsd::dds

@@ -144,9 +144,9 @@ TEST_F(Book, ANewReaderKeepsDevicesWhoseWritersComeBack) {
   book.writer_matched(11, writer(1, 1), t0 + 10s);
   book.writer_left(99, {11}, t0 + 11s);  // some writer leaving meanwhile drops nothing else
   EXPECT_TRUE(table.find(id("200")));
-  EXPECT_EQ(book.tick(t0 + 13s, {11}).refresh, false);
+  EXPECT_EQ(book.tick(t0 + 11500ms, {11}).refresh, false);
   EXPECT_TRUE(table.find(id("200")));  // before the deadline
-  book.tick(t0 + 14s, {11});           // reconcile_grace (4 s) after the reader
+  book.tick(t0 + 12s, {11});           // reconcile_grace (2 s) after the reader
   EXPECT_TRUE(table.find(id("100")));
   EXPECT_FALSE(table.find(id("200")));
 }
@@ -175,7 +175,7 @@ TEST_F(Book, SilentWritersMakeTheReaderAnewAFewTimes) {
 }
 
 TEST_F(Book, ALostServerAsksForARefreshAndIsFoundAgain) {
-  book.participant_alive(writer(1, 1).participant_guid);
+  book.participant_alive(writer(1, 1).participant_guid, t0);
   book.writer_matched(1, writer(1, 1), t0);
   book.sample(1, info("100"));
   book.participant_gone(writer(1, 1).participant_guid);  // its lease expired
@@ -193,7 +193,7 @@ TEST_F(Book, ALostServerAsksForARefreshAndIsFoundAgain) {
 }
 
 TEST_F(Book, AServerDroppingOneDeviceIsNotLost) {
-  book.participant_alive(writer(1, 1).participant_guid);
+  book.participant_alive(writer(1, 1).participant_guid, t0);
   book.writer_matched(1, writer(1, 1), t0);
   book.writer_matched(2, writer(1, 2), t0);
   book.sample(1, info("100"));

@@ -27,14 +27,14 @@ std::vector<std::chrono::milliseconds> refreshes(LostServers& lost, std::chrono:
 
 TEST(LostServers, NoLossNeverRefreshes) {
   LostServers lost;
-  lost.participant_alive(kServer);
+  lost.participant_alive(kServer, t0);
   EXPECT_TRUE(refreshes(lost, 60min).empty());
   EXPECT_EQ(lost.size(), 0u);
 }
 
 TEST(LostServers, AServerThatOnlyDroppedADeviceIsNotLost) {
   LostServers lost;
-  lost.participant_alive(kServer);
+  lost.participant_alive(kServer, t0);
   lost.writer_lost(kServer, t0);  // its participant is still there
   EXPECT_TRUE(refreshes(lost, 10min).empty());
   EXPECT_FALSE(lost.lost(kServer));
@@ -44,7 +44,7 @@ TEST(LostServers, WritersFirstThenTheParticipantIsALoss) {
   // On a lease expiry Cyclone drops the writers and the participant in either
   // order: the verdict waits for check_delay.
   LostServers lost;
-  lost.participant_alive(kServer);
+  lost.participant_alive(kServer, t0);
   lost.writer_lost(kServer, t0);
   EXPECT_FALSE(lost.check(t0 + 100ms).refresh);
   lost.participant_gone(kServer);
@@ -54,16 +54,13 @@ TEST(LostServers, WritersFirstThenTheParticipantIsALoss) {
   EXPECT_EQ(lost.size(), 1u);
 }
 
-TEST(LostServers, RefreshesBackOffUntilTheServerIsFound) {
+TEST(LostServers, BlindRefreshesBackOffUntilTheServerIsFound) {
   LostServers lost;
-  lost.writer_lost(kServer, t0);  // never seen alive: gone already
-  const auto at = refreshes(lost, 15min);
-  // 0.5 s after the loss, then 2, 8, 32, 128, 512 s later, then every 10 min.
-  const std::vector<std::chrono::milliseconds> expected{500ms,    2500ms,    10500ms,  42500ms,
-                                                         170500ms, 682500ms};
-  ASSERT_GE(at.size(), expected.size());
-  for (std::size_t i = 0; i < expected.size(); ++i) EXPECT_EQ(at[i], expected[i]) << i;
-  EXPECT_EQ(at.size(), expected.size());  // the next would be at 1282.5 s
+  lost.writer_lost(kServer, t0);  // never seen alive: gone already, and never heard again
+  const auto at = refreshes(lost, 25min);
+  // 0.5 s after the loss, then 30 s later, then 4x later each time up to 10 min.
+  const std::vector<std::chrono::milliseconds> expected{500ms, 30500ms, 150500ms, 630500ms, 1230500ms};
+  EXPECT_EQ(at, expected);
 
   lost.announced(kServer);  // its device-info arrived again: found
   EXPECT_EQ(lost.size(), 0u);
@@ -86,7 +83,7 @@ TEST(LostServers, OneRefreshServesEveryLostServer) {
   lost.writer_lost(kOther, t0 + 100ms);
   const auto at = refreshes(lost, 3s);
   // kServer is due at 0.5 s, kOther at 0.6 s: the refresh at 0.5 s served both.
-  EXPECT_EQ(at, (std::vector<std::chrono::milliseconds>{500ms, 2500ms}));
+  EXPECT_EQ(at, (std::vector<std::chrono::milliseconds>{500ms}));
   EXPECT_EQ(lost.size(), 2u);
 }
 
@@ -94,10 +91,46 @@ TEST(LostServers, ARebuiltParticipantForgetsWhatItHeardButNotTheLost) {
   LostServers lost;
   lost.writer_lost(kServer, t0);
   EXPECT_TRUE(lost.check(t0 + 500ms).refresh);
-  lost.participant_alive(kOther);
+  lost.participant_alive(kOther, t0);
   lost.writer_lost(kOther, t0 + 500ms);  // a suspect at the moment of the rebuild
   lost.participant_rebuilt();
   EXPECT_TRUE(lost.lost(kServer));
   EXPECT_FALSE(lost.check(t0 + 1500ms).refresh);
   EXPECT_FALSE(lost.lost(kOther));  // its suspicion went with the old participant
+}
+
+TEST(LostServers, HeardAgainWithoutItsDevicesRefreshesAfterTheGrace) {
+  // What a cut that healed after the first refresh looks like: the server's
+  // participant comes back, its writers never match.
+  LostServers lost;
+  lost.writer_lost(kServer, t0);
+  EXPECT_TRUE(lost.check(t0 + 500ms).refresh);
+  lost.participant_rebuilt();
+  lost.participant_alive(kServer, t0 + 1s);  // heard during the settle time: no reader yet
+  EXPECT_FALSE(lost.check(t0 + 2s).refresh);
+  lost.reader_made(t0 + 2200ms);
+  EXPECT_FALSE(lost.check(t0 + 3s).refresh);
+  EXPECT_TRUE(lost.check(t0 + 3200ms).refresh);  // rematch_grace after the reader
+  // At most heard_refreshes (3) of those for one server, then only the blind ones.
+  int heard = 1;
+  for (int round = 1; round < 7; ++round) {  // all before the blind one at 30.5 s
+    const auto base = t0 + std::chrono::seconds(4 * round);
+    lost.participant_rebuilt();
+    lost.reader_made(base);
+    lost.participant_alive(kServer, base);
+    if (lost.check(base + 1s).refresh) ++heard;
+  }
+  EXPECT_EQ(heard, 3);
+}
+
+TEST(LostServers, HeardAgainAndAnnouncingIsFound) {
+  LostServers lost;
+  lost.writer_lost(kServer, t0);
+  EXPECT_TRUE(lost.check(t0 + 500ms).refresh);
+  lost.participant_rebuilt();
+  lost.reader_made(t0 + 2200ms);
+  lost.participant_alive(kServer, t0 + 5s);
+  lost.announced(kServer);  // its device-info came
+  EXPECT_EQ(lost.size(), 0u);
+  for (auto t = 5s; t < 60s; t += 1s) EXPECT_FALSE(lost.check(t0 + t).refresh);
 }
