@@ -56,8 +56,7 @@ LostServers::Verdict LostServers::check(Clock::time_point now) {
   if (!verdict.refresh) return verdict;
   last_refresh_ = now;
   // One refresh serves every lost server; each backs off on its own count.
-  for (auto& [guid, lost] : lost_) {
-    if (now < lost.next_refresh) continue;  // served early: its own schedule stands
+  for (auto& [guid, lost] : lost_) {  // one refresh serves every lost server
     ++lost.refreshes;
     auto wait = times_.refresh_again;
     for (int i = 1; i < lost.refreshes && wait < times_.refresh_max; ++i) wait *= 4;

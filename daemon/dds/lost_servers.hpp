@@ -14,18 +14,20 @@
 namespace rsd::dds {
 
 struct LostServerTimes {
-  // The first refresh comes this long after a loss: a participant made during a
-  // cut finds the server the moment the cut heals. Later ones come when the lost
-  // server's participant is heard again but none of its devices follows within
-  // `rematch_grace` of the reader (measured: after a 5 s cut the same Cyclone
-  // participant hears the server's participant again, yet never its writers);
-  // and, in case it is never heard, blindly from `refresh_again` on, 4x later
-  // each time, up to `refresh_max`. A server lost longer than `forget_after` is
-  // given up (a crashed server comes back under another GUID anyway).
-  std::chrono::milliseconds refresh_first{500};
-  std::chrono::milliseconds rematch_grace{1000};
+  // A refresh comes when the lost server's participant is heard again but none
+  // of its devices follows within `rematch_grace` of the reader (measured: after
+  // a 3-8 s cut the same Cyclone participant hears the server's participant
+  // again, yet never its writers; after 12 s and more it finds them by itself).
+  // A crashed server is never heard again under its GUID, so it costs nothing:
+  // a blind refresh every few seconds slowed the removal of the next crashed
+  // server to 4 s (it cannot unmatch a reader it never matched). Blind ones only
+  // in case a server is never heard: `refresh_first` after the loss, then 4x
+  // `refresh_again` later each time, up to `refresh_max`. A server lost longer
+  // than `forget_after` is given up (a crashed one comes back under another GUID).
+  std::chrono::milliseconds refresh_first{30000};
+  std::chrono::milliseconds rematch_grace{500};
   int heard_refreshes = 3;  // per lost server: a peer that never rematches can't loop us
-  std::chrono::milliseconds refresh_again{std::chrono::seconds(30)};
+  std::chrono::milliseconds refresh_again{std::chrono::seconds(120)};
   std::chrono::milliseconds refresh_max{std::chrono::minutes(10)};
   std::chrono::milliseconds forget_after{std::chrono::minutes(30)};
   // Writers and their participant leave in either order on a lease expiry: a

@@ -91,7 +91,6 @@ def test_cuts_heal_by_themselves(free_domain, daemon, realdds_server, two_hosts)
               f"{refreshes} refresh(es)")
         if cut_s > LEASE_S + 1.0:
             assert removed_after is not None and removed_after <= REMOVE_WITHIN_S, (cut_s, removed_after)
-            assert refreshes >= 1
         # The lease runs from the last message heard, up to 1.5 s (realdds'
         # re-announce period) before the cut: only a cut under half the lease
         # never removes anything (a 2 s cut removed the camera after 1.62 s).

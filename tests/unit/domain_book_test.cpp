@@ -175,15 +175,18 @@ TEST_F(Book, SilentWritersMakeTheReaderAnewAFewTimes) {
 }
 
 TEST_F(Book, ALostServerAsksForARefreshAndIsFoundAgain) {
+  book.reader_made(t0 - 10s);
   book.participant_alive(writer(1, 1).participant_guid, t0);
   book.writer_matched(1, writer(1, 1), t0);
   book.sample(1, info("100"));
-  book.participant_gone(writer(1, 1).participant_guid);  // its lease expired
+  book.participant_gone(writer(1, 1).participant_guid);  // its lease expired (a cut)
   book.writer_left(1, {}, t0);
   EXPECT_FALSE(table.find(id("100")));
-  EXPECT_FALSE(book.tick(t0 + 200ms, {}).refresh);
-  EXPECT_TRUE(book.tick(t0 + 500ms, {}).refresh);
+  EXPECT_FALSE(book.tick(t0 + 500ms, {}).refresh);
   EXPECT_EQ(status().lost_servers, 1u);
+  book.participant_alive(writer(1, 1).participant_guid, t0 + 2s);  // heard again, its writers not
+  EXPECT_FALSE(book.tick(t0 + 2200ms, {}).refresh);
+  EXPECT_TRUE(book.tick(t0 + 2500ms, {}).refresh);
   book.participant_made();
   book.reader_made(t0 + 3s);
   book.writer_matched(1, writer(1, 1), t0 + 3s);
