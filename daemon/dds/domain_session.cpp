@@ -124,9 +124,11 @@ void DomainSession::start() {
   fetcher_.set_participant(participant_);
   std::lock_guard lock(mutex_);
   participant_guid_ = guid_to_string(guid);
-  state_ = DomainState::settling;
+  // A participant made anew keeps the domain's devices meanwhile: "rebuilding"
+  // says so until its reader reads again; a first join is "settling".
+  state_ = rebuilding_ ? DomainState::rebuilding : DomainState::settling;
   error_.clear();
-  log::info("domain " + std::to_string(d) + ": joined as participant " + participant_guid_ +
+  log::info(log::domain_prefix(d) + "joined as participant " + participant_guid_ +
             "; reading device-info after " + std::to_string(options_.settle.count()) + " ms of discovery");
 }
 
@@ -143,14 +145,21 @@ void DomainSession::stop() {
 }
 
 void DomainSession::rebuild() {
-  log::notice("domain " + std::to_string(options_.domain) +
-              ": rebuilding the DDS participant; devices are kept until reconciled");
+  log::notice(log::domain_prefix(options_.domain) +
+              "rebuilding the DDS participant; devices are kept until reconciled");
   stop();
   {
     std::lock_guard lock(mutex_);
     ++rebuilds_;
   }
-  start();  // the reader follows after the settle time, then reconciliation
+  rebuilding_ = true;
+  try {
+    start();  // the reader follows after the settle time, then reconciliation
+  } catch (...) {
+    rebuilding_ = false;
+    throw;
+  }
+  rebuilding_ = false;
 }
 
 void DomainSession::forget_devices() {
@@ -180,7 +189,7 @@ void DomainSession::create_reader() {
     std::lock_guard lock(mutex_);
     state_ = DomainState::failed;
     error_ = dds_error("cannot create the device-info reader", reader);
-    log::error("domain " + std::to_string(options_.domain) + ": " + error_);
+    log::error(log::domain_prefix(options_.domain) + error_);
     return;
   }
   reader_ = reader;

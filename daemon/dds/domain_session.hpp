@@ -113,6 +113,7 @@ class DomainSession {
   dds_entity_t reader_ = 0;
   dds_entity_t participant_reader_ = 0;
   Clock::time_point joined_at_{};
+  bool rebuilding_ = false;  // start() is making the participant anew (main thread only)
 
   mutable std::mutex mutex_;  // everything below; listener threads and the main loop
   DomainState state_ = DomainState::stopped;

@@ -149,6 +149,8 @@ def test_rebuilding_the_participant_keeps_devices_without_events(free_domain, da
     events = EventStream(d)
     before = d.get_json("/v1/domains")["domains"][0]
     d.signal(signal.SIGUSR1)  # a fresh participant, as after a network cut
+    # Until the new participant reads, the domain says it is being rebuilt.
+    wait_for(lambda: d.get_json("/v1/domains")["domains"][0]["state"] == "rebuilding", what="state rebuilding")
     wait_for(lambda: d.get_json("/v1/domains")["domains"][0]["rebuilds"] == 1, what="rebuild counted")
     after = wait_for(lambda: (lambda s: s if s["state"] == "running" else None)(
         d.get_json("/v1/domains")["domains"][0]), what="domain reading again")
