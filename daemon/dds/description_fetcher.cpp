@@ -11,8 +11,9 @@
 
 namespace rsd::dds {
 
-DescriptionFetcher::DescriptionFetcher(int domain, std::chrono::milliseconds fetch_timeout)
-    : domain_(domain), fetch_timeout_(fetch_timeout) {}
+DescriptionFetcher::DescriptionFetcher(int domain, std::chrono::milliseconds fetch_timeout,
+                                       std::function<void(const std::string& topic_root)> described)
+    : domain_(domain), fetch_timeout_(fetch_timeout), described_(std::move(described)) {}
 
 DescriptionFetcher::~DescriptionFetcher() {
   set_participant(0);
@@ -205,6 +206,7 @@ void DescriptionFetcher::take(Fetch& fetch, dds_entity_t reader) {
   if (completed) {
     log::info(log::domain_prefix(domain_) + "described " + fetch.topic_root);
     changed_.notify_all();
+    if (described_) described_(fetch.topic_root);
   }
 }
 

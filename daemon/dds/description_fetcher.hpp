@@ -40,7 +40,10 @@ class DescriptionFetcher {
 
   // `fetch_timeout`: how long one fetch may take before it is given up (the use
   // case's 30 s); a caller may wait less.
-  DescriptionFetcher(int domain, std::chrono::milliseconds fetch_timeout);
+  // `described` is called (from a DDS listener thread, no lock held) with the
+  // topic-root of each device whose description became available.
+  DescriptionFetcher(int domain, std::chrono::milliseconds fetch_timeout,
+                     std::function<void(const std::string& topic_root)> described = {});
   ~DescriptionFetcher();
   DescriptionFetcher(const DescriptionFetcher&) = delete;
   DescriptionFetcher& operator=(const DescriptionFetcher&) = delete;
@@ -97,6 +100,7 @@ class DescriptionFetcher {
 
   const int domain_;
   const std::chrono::milliseconds fetch_timeout_;
+  const std::function<void(const std::string&)> described_;
   std::atomic<dds_entity_t> participant_{0};
   std::atomic<std::uint64_t> started_{0};
 

@@ -64,7 +64,10 @@ DomainSession::DomainSession(SharedTable& table, SessionOptions options)
         book.domain = options_.domain;
         return book;
       }()),
-      fetcher_(options_.domain, options_.describe_timeout) {}
+      fetcher_(options_.domain, options_.describe_timeout,
+               [&table, domain = options_.domain](const std::string& topic_root) {
+                 table.note_described(device_id(domain, topic_root));  // the `described` event
+               }) {}
 
 DomainSession::~DomainSession() { stop(); }
 

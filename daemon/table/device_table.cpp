@@ -10,6 +10,7 @@ const char* to_string(EventType type) {
     case EventType::added: return "added";
     case EventType::changed: return "changed";
     case EventType::removed: return "removed";
+    case EventType::described: return "described";
   }
   return "unknown";
 }
@@ -260,6 +261,12 @@ EventsSince DeviceTable::events_since(std::uint64_t generation) const {
                                 [](const DeviceEvent& e, std::uint64_t g) { return e.generation < g; });
   out.events.assign(first, log_.end());
   return out;
+}
+
+std::optional<DeviceEvent> DeviceTable::note_described(const std::string& id) {
+  const nlohmann::json* entry = find(id);
+  if (!entry) return std::nullopt;
+  return record(EventType::described, *entry);
 }
 
 DeviceEvent DeviceTable::record(EventType type, const nlohmann::json& device) {

@@ -18,7 +18,9 @@
 
 namespace rsd {
 
-enum class EventType { added, changed, removed };
+// `described`: nothing of the device changed, but its description (Camera
+// Discovery, GET /v1/devices/{id}/description) became available.
+enum class EventType { added, changed, removed, described };
 const char* to_string(EventType type);
 
 struct DeviceEvent {
@@ -80,6 +82,10 @@ class DeviceTable {
   // there. Returns the event of the entry that showed it: `removed`, or `changed`
   // when the entry lives on through another source's sighting.
   std::optional<DeviceEvent> remove(const std::string& id);
+
+  // Records a `described` event for the entry `id` (or the one its sighting is
+  // merged into) without changing it; nothing when there is no such entry.
+  std::optional<DeviceEvent> note_described(const std::string& id);
 
   // Removes every sighting whose document (as its source gave it, with "id" and
   // the timestamps) satisfies `pred`; returns every event that caused.

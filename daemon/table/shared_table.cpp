@@ -24,6 +24,16 @@ std::optional<DeviceEvent> SharedTable::remove(const std::string& id) {
   return event;
 }
 
+std::optional<DeviceEvent> SharedTable::note_described(const std::string& id) {
+  std::optional<DeviceEvent> event;
+  {
+    std::lock_guard lock(mutex_);
+    event = table_.note_described(id);
+  }
+  if (event) changed_.notify_all();
+  return event;
+}
+
 std::vector<DeviceEvent> SharedTable::remove_if(
     const std::function<bool(const nlohmann::json&)>& pred) {
   std::vector<DeviceEvent> events;

@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from conftest import device_info, wait_for
+from conftest import EventStream, device_info, wait_for
 from test_realdds import dds_id
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "integration"))
@@ -64,6 +64,7 @@ def test_description_matches_what_the_server_declared(free_domain, daemon, reald
     d = daemon([free_domain])
     cam_id = dds_id(free_domain, cam)
     wait_for(lambda: d.device_ids() == [cam_id], what="the camera")
+    events = EventStream(d)
     t = time.monotonic()
     status, _, desc = describe(d, cam_id)
     print(f"first description of a {len(SPEC['streams'])}-stream server: {(time.monotonic() - t) * 1000:.1f} ms")
@@ -88,6 +89,9 @@ def test_description_matches_what_the_server_declared(free_domain, daemon, reald
     assert ext["rotation"] == [1, 0, 0, 0, 1, 0, 0, 0, 1]
     assert ext["translation"] == pytest.approx([0.015, 0.0, 0.0])
     assert desc["presets"] == []
+    ev = events.next(types=("described",))
+    assert ev["json"]["id"] == cam_id
+    events.close()
     # Asked again (over HTTP this time), it is the kept one: no second subscription.
     status, _, again = describe(d, cam_id, via="tcp")
     assert status == 200 and again == desc

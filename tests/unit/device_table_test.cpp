@@ -118,3 +118,19 @@ TEST(DeviceTable, FirstGenerationSeedsIds) {
   EXPECT_TRUE(t.events_since(10).gap);  // an id from before this table existed
   EXPECT_EQ(t.events_since(1000).events.size(), 1u);
 }
+
+TEST(DeviceTable, DescribedIsAnEventThatChangesNothing) {
+  DeviceTable t;
+  t.upsert("a", d455(), "T1");
+  const json before = *t.find("a");
+  auto ev = t.note_described("a");
+  ASSERT_TRUE(ev);
+  EXPECT_EQ(ev->type, EventType::described);
+  EXPECT_STREQ(rsd::to_string(ev->type), "described");
+  EXPECT_EQ(ev->generation, 2u);
+  EXPECT_EQ(ev->device, before);
+  EXPECT_EQ(*t.find("a"), before);
+  EXPECT_EQ(t.events_since(1).events.size(), 1u);
+  EXPECT_FALSE(t.note_described("nobody"));
+  EXPECT_EQ(t.generation(), 2u);
+}
