@@ -9,8 +9,8 @@ CLI = os.path.join(BUILD, "client", "rs-discover")
 EXAMPLE = os.path.join(BUILD, "client", "rsdiscovery-list-cameras")
 DRIVER = os.path.join(BUILD, "tests", "client", "rsdiscovery_test_driver")
 
-# This suite's DDS domains: 150-199, so it never meets another suite's servers.
-DOMAIN_RANGE = (150, 199)
+# This suite's DDS domains: 80-100, so it never meets another suite's servers.
+DOMAIN_RANGE = (80, 100)
 
 
 def rs_discover(*args, endpoint=None, env=None, timeout=30):

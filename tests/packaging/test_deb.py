@@ -115,7 +115,7 @@ def check_installed_daemon(user, domains, realdds_server, tmp_path):
     (read from its default path). Two settings are moved out of the way of other
     tests and daemons on this machine with flags, which win over the file: the DDS
     domain and the HTTP port."""
-    domain = domains.take(100, 149)
+    domain = domains.take(60, 79)
     port = free_port()
     runtime = tempfile.mkdtemp(prefix="rsd-pkg-run-")  # /run/rs-discoveryd may be someone else's
     os.chmod(runtime, 0o755)

@@ -8,7 +8,7 @@ from svc_util import notify_socket  # noqa: F401  (fixture)
 
 
 def test_ready_only_when_every_domain_reads_and_the_api_listens(domains, daemon, notify_socket):
-    a, b = domains.take(100, 149), domains.take(100, 149)
+    a, b = domains.take(60, 79), domains.take(60, 79)
     d = daemon([a, b], env=notify_socket.env(), wait=False)
     first = notify_socket.wait(lambda m: "STATUS" in m, what="a first STATUS")
     assert first["STATUS"].startswith("starting:"), first

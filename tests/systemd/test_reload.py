@@ -21,7 +21,7 @@ def reload(d, notify):
 
 def test_reload_joins_and_leaves_domains_keeping_unchanged_ones(tmp_path, domains, daemon, realdds_server,
                                                                  notify_socket):
-    a, b = domains.take(100, 149), domains.take(100, 149)
+    a, b = domains.take(60, 79), domains.take(60, 79)
     config = tmp_path / "config.json"
     write_config(config, domains=[a], usb=False)
     # No --domain flag: the file decides the domains (a flag would win over it).
@@ -59,7 +59,7 @@ def test_reload_joins_and_leaves_domains_keeping_unchanged_ones(tmp_path, domain
 
 def test_invalid_config_keeps_the_running_one_and_says_why(tmp_path, domains, daemon, realdds_server,
                                                           notify_socket):
-    a = domains.take(100, 149)
+    a = domains.take(60, 79)
     config = tmp_path / "config.json"
     write_config(config, domains=[a], usb=False)
     d = daemon([], extra=["--config", str(config)], env=notify_socket.env())
@@ -86,7 +86,7 @@ def test_invalid_config_keeps_the_running_one_and_says_why(tmp_path, domains, da
 
 
 def test_settings_that_need_a_restart_are_named(tmp_path, domains, daemon, notify_socket):
-    a = domains.take(100, 149)
+    a = domains.take(60, 79)
     config = tmp_path / "config.json"
     write_config(config, domains=[a], usb=False)
     d = daemon([], extra=["--config", str(config)], env=notify_socket.env())

@@ -67,7 +67,7 @@ class Activator:
 
 @pytest.mark.parametrize("fdnames", [None, "unix:http"], ids=["by-family", "by-name"])
 def test_activated_on_unix_socket_and_tcp_port(tmp_path, domains, fdnames):
-    domain = domains.take(100, 149)
+    domain = domains.take(60, 79)
     a = Activator(tmp_path, domain, fdnames)
     try:
         # The connection that starts the daemon is answered, not refused: it waits
@@ -89,7 +89,7 @@ def test_activated_on_unix_socket_and_tcp_port(tmp_path, domains, fdnames):
 
 
 def test_a_socket_named_for_the_wrong_role_is_an_error(tmp_path, domains):
-    a = Activator(tmp_path, domains.take(100, 149), fdnames="http:unix")
+    a = Activator(tmp_path, domains.take(60, 79), fdnames="http:unix")
     try:
         with socket.socket(socket.AF_UNIX) as s:
             s.connect(a.socket)  # starts the daemon, which refuses the swapped names
@@ -127,7 +127,7 @@ def http_over(sock, path):
 def test_sockets_outlive_the_daemon_and_queue_clients_across_a_restart(tmp_path, domains):
     """What a socket unit does on `systemctl restart`: systemd keeps the listening
     sockets; a client arriving between two daemons waits and is served by the next."""
-    domain = domains.take(100, 149)
+    domain = domains.take(60, 79)
     path = str(tmp_path / "unit.sock")
     unix = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     unix.bind(path)
