@@ -57,13 +57,32 @@ def subscriptions(d, topic_root):
     return d.log().count(f"subscribing to {topic_root}/notification")
 
 
-def test_description_matches_what_the_server_declared(free_domain, daemon, realdds_server):
-    cam = device_info(1)
-    server = realdds_server(free_domain, [])
+def served_camera(n, domain, daemon, realdds_server, extra=()):
+    """A realdds server serving camera n with SPEC, and a daemon that lists it."""
+    cam = device_info(n)
+    server = realdds_server(domain, [])
     server.command(cmd="add", info=cam, spec=SPEC)
-    d = daemon([free_domain])
-    cam_id = dds_id(free_domain, cam)
+    d = daemon([domain], extra=list(extra))
+    cam_id = dds_id(domain, cam)
     wait_for(lambda: d.device_ids() == [cam_id], what="the camera")
+    return server, d, cam, cam_id
+
+
+def announce(d, writer, domain, *infos):
+    """Writes the device-infos until the daemon lists them all (a just-matched
+    writer's first samples can be lost to the late-joiner race)."""
+    def listed():
+        ids = d.device_ids()
+        if all(dds_id(domain, i) in ids for i in infos):
+            return True
+        for i in infos:
+            writer.send(json=i)
+        return False
+    wait_for(listed, timeout=20, interval=0.5, what="announced")
+
+
+def test_description_matches_what_the_server_declared(free_domain, daemon, realdds_server):
+    server, d, cam, cam_id = served_camera(1, free_domain, daemon, realdds_server)
     events = EventStream(d)
     t = time.monotonic()
     status, _, desc = describe(d, cam_id)
@@ -102,12 +121,7 @@ def test_description_matches_what_the_server_declared(free_domain, daemon, reald
 
 
 def test_two_clients_at_once_share_one_fetch(free_domain, daemon, realdds_server):
-    cam = device_info(2)
-    server = realdds_server(free_domain, [])
-    server.command(cmd="add", info=cam, spec=SPEC)
-    d = daemon([free_domain])
-    cam_id = dds_id(free_domain, cam)
-    wait_for(lambda: d.device_ids() == [cam_id], what="the camera")
+    server, d, cam, cam_id = served_camera(2, free_domain, daemon, realdds_server)
     results = []
     threads = [threading.Thread(target=lambda: results.append(describe(d, cam_id))) for _ in range(4)]
     for t in threads:
@@ -121,12 +135,7 @@ def test_two_clients_at_once_share_one_fetch(free_domain, daemon, realdds_server
 
 
 def test_device_back_with_other_streams_is_described_anew(free_domain, daemon, realdds_server):
-    cam = device_info(3)
-    server = realdds_server(free_domain, [])
-    server.command(cmd="add", info=cam, spec=SPEC)
-    d = daemon([free_domain])
-    cam_id = dds_id(free_domain, cam)
-    wait_for(lambda: d.device_ids() == [cam_id], what="the camera")
+    server, d, cam, cam_id = served_camera(3, free_domain, daemon, realdds_server)
     assert len(describe(d, cam_id)[2]["streams"]) == 4
     server.command(cmd="remove", **{"topic-root": cam["topic-root"]})
     wait_for(lambda: d.device_ids() == [], what="the camera gone")
@@ -144,15 +153,7 @@ def test_servers_that_never_answer_or_never_finish(free_domain, daemon, cyclone_
     silent, broken = device_info(4), device_info(5)
     writer = cyclone_peer(free_domain, "writer")
     assert writer.next() == {"matched": True}
-
-    def announced(*infos):
-        ids = d.device_ids()
-        if all(dds_id(free_domain, i) in ids for i in infos):
-            return True
-        for i in infos:
-            writer.send(json=i)
-        return False
-    wait_for(lambda: announced(silent, broken), timeout=20, interval=0.5, what="both announced")
+    announce(d, writer, free_domain, silent, broken)
 
     # A made-up server: a header of 2 streams, one stream, interleaved noise, garbage.
     notifier = cyclone_peer(free_domain, "writer", topic=broken["topic-root"] + "/notification")
@@ -197,13 +198,7 @@ def test_device_leaving_mid_fetch(free_domain, daemon, cyclone_peer):
     cam = device_info(6)
     writer = cyclone_peer(free_domain, "writer")
     assert writer.next() == {"matched": True}
-
-    def announced():
-        if dds_id(free_domain, cam) in d.device_ids():
-            return True
-        writer.send(json=cam)
-        return False
-    wait_for(announced, timeout=20, interval=0.5, what="the camera")
+    announce(d, writer, free_domain, cam)
     result = {}
     thread = threading.Thread(target=lambda: result.update(r=describe(d, dds_id(free_domain, cam))))
     thread.start()
@@ -228,12 +223,8 @@ def test_usb_and_recovery_devices_are_not_described(free_domain, daemon, realdds
 
 
 def test_described_eagerly_when_configured(free_domain, daemon, realdds_server):
-    cam = device_info(8)
-    server = realdds_server(free_domain, [])
-    server.command(cmd="add", info=cam, spec=SPEC)
-    d = daemon([free_domain], extra=["--describe-eagerly", str(free_domain)])
-    cam_id = dds_id(free_domain, cam)
-    wait_for(lambda: d.device_ids() == [cam_id], what="the camera")
+    server, d, cam, cam_id = served_camera(8, free_domain, daemon, realdds_server,
+                                           extra=["--describe-eagerly", str(free_domain)])
     # Described without anyone asking; asking then answers from what is kept.
     wait_for(lambda: f"described {cam['topic-root']}" in d.log(), what="the camera described by itself")
     status, _, desc = describe(d, cam_id)
