@@ -1,7 +1,9 @@
 #include "api/api_server.hpp"
 
 #include "api/format.hpp"
+#include "api/host_check.hpp"
 #include "api/listener.hpp"
+#include "api/server_loop.hpp"
 #include "log/log.hpp"
 
 #include <algorithm>
@@ -23,15 +25,22 @@ namespace {
 
 constexpr const char* kJson = "application/json";
 constexpr const char* kAllow = "GET, HEAD";
-// How long an SSE worker waits on the table before it looks at the stop flag
-// again; bounds how long stop() waits for streams.
-constexpr std::chrono::milliseconds kStreamSlice{100};
+// How long stop() gives answers and streams' last chunks to go out.
+constexpr std::chrono::milliseconds kStopGrace{500};
 // The API takes no bodies; anything bigger than this is refused before it is read.
 constexpr std::size_t kMaxPayload = 64 * 1024;
 
 // `.+`, not `[^/]+`: a topic-root ("realsense/D455_1") names a device too, and httplib
 // matches the decoded path.
 const std::regex kDeviceRoute(R"(/v1/devices/(.+))");
+
+// Camera Discovery waits on the camera: its requests go to the blocking pool,
+// never onto an event loop that serves everyone else.
+bool blocking_target(std::string_view target) {
+  const auto path = target.substr(0, target.find('?'));
+  constexpr std::string_view suffix = "/description";
+  return path.size() > suffix.size() && path.substr(path.size() - suffix.size()) == suffix;
+}
 
 bool known_path(const std::string& path) {
   static const std::set<std::string> fixed = {"/v1/devices", "/v1/events", "/v1/domains", "/healthz",
@@ -57,17 +66,27 @@ struct ApiServer::Impl {
   const std::string version;
   ApiOptions options;
 
-  struct Slot {
-    std::unique_ptr<Listener> server;
-    std::thread thread;
-    SocketAddress address;
-    std::string name;  // for logs
-  };
-  std::vector<Slot> slots;
+  std::unique_ptr<RequestServer> unix_server;
+  std::unique_ptr<RequestServer> http_server;
+  std::unique_ptr<ServerLoop> loop;
+  int unix_fd = -1;
+  int http_fd = -1;
+  HostCheck host_check;  // the HTTP listener's
 
   std::string socket_path;  // the socket file we created and must remove; "" if none
   struct stat socket_stat{};
   int bound_http_port = 0;
+
+  // /v1/devices bodies of the table's current generation, by query: a busy
+  // poller costs a lookup, not a snapshot and a JSON dump.
+  struct CachedList {
+    std::uint64_t generation = 0;
+    bool complete = false;
+    std::string query;
+    std::shared_ptr<const std::string> body;
+  };
+  std::mutex list_cache_mutex;
+  std::vector<CachedList> list_cache;
 
   std::mutex lifecycle;
   std::atomic<bool> stopping{false};
@@ -104,7 +123,9 @@ struct ApiServer::Impl {
     return out;
   }
 
-  void configure(Listener& svr);
+  void configure(RequestServer& svr, bool http);
+  std::shared_ptr<const std::string> device_list(const DeviceFilter& filter, const std::string& query, bool done,
+                                                 std::uint64_t& generation);
   void handle_devices(const httplib::Request& req, httplib::Response& res);
   void handle_device(const httplib::Request& req, httplib::Response& res);
   void handle_description(const httplib::Request& req, httplib::Response& res);
@@ -116,28 +137,17 @@ struct ApiServer::Impl {
   void handle_metrics(const httplib::Request& req, httplib::Response& res);
   void handle_events(const httplib::Request& req, httplib::Response& res);
 
-  void launch(std::unique_ptr<Listener> server, std::string name, bool adopted);
   void start(const ApiOptions& opts);
   void stop();
   void stop_locked();
 };
 
-void ApiServer::Impl::configure(Listener& svr) {
-  const auto threads = static_cast<std::size_t>(std::max(4, options.worker_threads));
-  svr.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
-  svr.set_tcp_nodelay(true);
-  // httplib's default options set SO_REUSEPORT, which would let a second daemon
-  // bind the same port and silently share it; SO_REUSEADDR alone still allows a
-  // quick restart while refusing a port someone is listening on.
-  svr.set_socket_options([](socket_t sock) {
-    int yes = 1;
-    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
-  });
+void ApiServer::Impl::configure(RequestServer& svr, bool http) {
   svr.set_payload_max_length(kMaxPayload);
-  // httplib's default of 5 requests per connection makes polling clients reconnect needlessly.
-  svr.set_keep_alive_max_count(1000);
-  svr.set_read_timeout(5, 0);
-  svr.set_write_timeout(5, 0);
+  // Only what httplib writes in its Keep-Alive header: the loop decides when a
+  // connection ends (ServerLoop's idle timeout).
+  svr.set_keep_alive_max_count(100000);
+  svr.set_keep_alive_timeout(std::max(1, options.idle_timeout_ms / 1000));
 
   svr.Get("/v1/devices", [this](const auto& req, auto& res) { handle_devices(req, res); });
   // Before the device route, whose `.+` would take ".../description" too.
@@ -162,7 +172,13 @@ void ApiServer::Impl::configure(Listener& svr) {
   // httplib 0.11 answers 400 to a POST/PUT/PATCH/DELETE that has no body
   // headers at all (it expects one) before any route runs; with no body there is
   // nothing to read, so answer such requests here, before that check.
-  svr.set_pre_routing_handler([not_allowed](const httplib::Request& req, httplib::Response& res) {
+  svr.set_pre_routing_handler([this, http, not_allowed](const httplib::Request& req, httplib::Response& res) {
+    if (http && !host_check.allows(req.get_header_value("Host"))) {
+      send_error(res, 421,
+                 "this daemon does not answer for host '" + req.get_header_value("Host") +
+                     "'; use its address or localhost (allowed-hosts in the configuration adds names)");
+      return httplib::Server::HandlerResponse::Handled;
+    }
     if (req.method == "GET" || req.method == "HEAD" || req.has_header("Content-Length") ||
         req.has_header("Transfer-Encoding"))
       return httplib::Server::HandlerResponse::Unhandled;
@@ -206,19 +222,59 @@ void ApiServer::Impl::configure(Listener& svr) {
   });
 }
 
-void ApiServer::Impl::handle_devices(const httplib::Request& req, httplib::Response& res) {
-  DeviceFilter filter;
-  if (auto err = parse_device_filter(req.params, filter)) return send_error(res, 400, *err);
-  // Completeness first, then the snapshot: "complete": true then promises that the
-  // list was taken after the first discovery ended, never just before.
-  const bool done = complete(domains());
+std::shared_ptr<const std::string> ApiServer::Impl::device_list(const DeviceFilter& filter, const std::string& query,
+                                                                bool done, std::uint64_t& generation) {
+  const auto now = table.generation();
+  {
+    std::lock_guard lock(list_cache_mutex);
+    for (const auto& c : list_cache)
+      if (c.generation == now && c.complete == done && c.query == query) {
+        generation = c.generation;
+        return c.body;
+      }
+  }
   auto snap = table.snapshot();
   nlohmann::json devices = nlohmann::json::array();
   for (auto& d : snap.devices)
     if (filter.matches(d)) devices.push_back(std::move(d));
   // The generation lets a client list, then stream with ?since=generation,
   // without missing or repeating an event in between.
-  send_json(res, 200, {{"generation", snap.generation}, {"complete", done}, {"devices", std::move(devices)}});
+  nlohmann::json doc = {{"generation", snap.generation}, {"complete", done}, {"devices", std::move(devices)}};
+  auto body = std::make_shared<const std::string>(dump(doc) + "\n");
+  {
+    std::lock_guard lock(list_cache_mutex);
+    // Keep one generation; a handful of distinct filters of it is all pollers use.
+    if (!list_cache.empty() && list_cache.front().generation != snap.generation) list_cache.clear();
+    if (list_cache.size() < 16) list_cache.push_back({snap.generation, done, query, body});
+  }
+  generation = snap.generation;
+  return body;
+}
+
+void ApiServer::Impl::handle_devices(const httplib::Request& req, httplib::Response& res) {
+  DeviceFilter filter;
+  if (auto err = parse_device_filter(req.params, filter)) return send_error(res, 400, *err);
+  std::string query;  // the parsed parameters in order: the cache's key
+  for (const auto& [k, v] : req.params) query += k + "=" + v + "&";
+  // Completeness first, then the snapshot: "complete": true then promises that the
+  // list was taken after the first discovery ended, never just before.
+  const bool done = complete(domains());
+  std::uint64_t generation = 0;
+  auto body = device_list(filter, query, done, generation);
+  // The table's generation names the body: a client that has it already gets a
+  // 304 and keeps what it parsed.
+  const std::string etag = "\"" + std::to_string(generation) + (done ? "" : "-partial") + "\"";
+  res.set_header("ETag", etag);
+  res.set_header("Cache-Control", "no-cache");
+  if (etag_matches(req.get_header_value("If-None-Match"), etag)) {
+    res.status = 304;
+    return;
+  }
+  res.status = 200;
+  // Served from the shared bytes, not copied into the response.
+  res.set_content_provider(body->size(), kJson, [body](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+    return sink.write(body->data() + offset, length);
+  });
 }
 
 std::vector<nlohmann::json> ApiServer::Impl::lookup(const std::string& name) const {
@@ -337,23 +393,56 @@ void ApiServer::Impl::handle_metrics(const httplib::Request& req, httplib::Respo
 
 namespace {
 
-// One SSE client's state, shared by the content provider's copies; its
-// destructor frees the stream slot however the stream ends.
-struct Stream {
-  std::atomic<std::size_t>* open = nullptr;
-  std::uint64_t cursor = 0;  // last generation this client has been brought past
-  DeviceFilter filter;
-  std::string pending;  // written on the first provider call
-  std::chrono::steady_clock::time_point next_keepalive;
-  ~Stream() {
-    if (open) --*open;
-  }
-};
-
 std::string resync_message(std::uint64_t generation, const std::string& reason) {
   nlohmann::json data = {{"generation", generation}, {"reason", reason}};
   return sse_message("resync", generation, dump(data));
 }
+
+// One SSE client's feed: what it has been sent up to (`cursor`), its filter, and
+// when it next needs a keep-alive. The server loop owns it with the connection
+// and polls it on table changes; its destructor frees the stream slot.
+class TableFeed final : public EventFeed {
+ public:
+  TableFeed(const SharedTable& table, std::atomic<std::size_t>& open, std::atomic<std::uint64_t>& sent,
+            std::chrono::milliseconds keepalive)
+      : table_(table), open_(open), sent_(sent), keepalive_(keepalive) {}
+  ~TableFeed() override { --open_; }
+
+  std::uint64_t cursor = 0;  // last generation this client has been brought past
+  DeviceFilter filter;
+  std::string pending;  // sent first
+
+  std::string poll(Clock::time_point now) override {
+    std::string out = std::move(pending);
+    pending.clear();
+    if (table_.generation() != cursor) {
+      const auto got = table_.wait_events(cursor, std::chrono::milliseconds(0));
+      if (got.gap) {
+        cursor = table_.generation();
+        out += resync_message(cursor, "missed events are no longer kept; re-list /v1/devices");
+      }
+      std::uint64_t n = 0;
+      for (const auto& e : got.events) {
+        cursor = e.generation;
+        if (!filter.matches(e.device)) continue;
+        out += sse_message(to_string(e.type), e.generation, dump(e.device));
+        ++n;
+      }
+      sent_ += n;
+    }
+    // A dead client is only noticed when a write fails; the keep-alive is also that probe.
+    if (out.empty() && now >= next_keepalive_) out = sse_comment("keep-alive");
+    if (!out.empty()) next_keepalive_ = now + keepalive_;
+    return out;
+  }
+
+ private:
+  const SharedTable& table_;
+  std::atomic<std::size_t>& open_;
+  std::atomic<std::uint64_t>& sent_;
+  const std::chrono::milliseconds keepalive_;
+  Clock::time_point next_keepalive_ = Clock::now() + keepalive_;
+};
 
 }  // namespace
 
@@ -374,7 +463,7 @@ void ApiServer::Impl::handle_events(const httplib::Request& req, httplib::Respon
     if (!since) bad_last_event_id = true;  // not an id of ours: the client must re-list
   }
 
-  const auto limit = static_cast<std::size_t>(std::max(0, options.max_event_streams));
+  const auto limit = options.max_event_streams;
   std::size_t n = streams_open.load();
   do {
     if (n >= limit) {
@@ -384,100 +473,33 @@ void ApiServer::Impl::handle_events(const httplib::Request& req, httplib::Respon
     }
   } while (!streams_open.compare_exchange_weak(n, n + 1));
 
-  auto st = std::make_shared<Stream>();
-  st->open = &streams_open;
-  st->filter = std::move(filter);
+  auto feed = std::make_shared<TableFeed>(table, streams_open, events_sent,
+                                         std::chrono::milliseconds(std::max(10, options.keepalive_ms)));
+  feed->filter = std::move(filter);
   // Browsers reconnect after `retry` ms; a local daemon restarts quickly.
-  st->pending = "retry: 1000\n\n";
+  feed->pending = "retry: 1000\n\n";
   if (bad_last_event_id) {
-    st->cursor = table.generation();
-    st->pending += resync_message(st->cursor, "unknown Last-Event-ID; re-list /v1/devices");
+    feed->cursor = table.generation();
+    feed->pending += resync_message(feed->cursor, "unknown Last-Event-ID; re-list /v1/devices");
   } else if (!since) {
-    st->cursor = table.generation();
-    nlohmann::json hello = {{"generation", st->cursor}, {"version", version}};
-    st->pending += sse_message("hello", st->cursor, dump(hello));
+    feed->cursor = table.generation();
+    nlohmann::json hello = {{"generation", feed->cursor}, {"version", version}};
+    feed->pending += sse_message("hello", feed->cursor, dump(hello));
   } else {
-    st->cursor = *since;  // the provider replays from here, or tells the client to resync
+    feed->cursor = *since;  // the first poll replays from here, or tells the client to resync
   }
-  st->next_keepalive = std::chrono::steady_clock::now() + std::chrono::milliseconds(options.keepalive_ms);
 
   res.set_header("Cache-Control", "no-cache");
   res.set_header("X-Accel-Buffering", "no");  // nginx and friends must not hold events back
-  const auto keepalive = std::chrono::milliseconds(std::max(10, options.keepalive_ms));
-  res.set_chunked_content_provider(
-      "text/event-stream", [this, st, keepalive](std::size_t, httplib::DataSink& sink) -> bool {
-        // httplib does not catch here; an escaping exception would end the process.
-        try {
-          auto write = [&](const std::string& s) { return sink.write(s.data(), s.size()); };
-          if (stopping || table.closed()) {
-            sink.done();
-            return true;
-          }
-          if (!st->pending.empty()) {
-            std::string out = std::move(st->pending);
-            st->pending.clear();
-            if (!write(out)) return false;
-          }
-          const auto now = std::chrono::steady_clock::now();
-          const auto until_keepalive =
-              std::chrono::duration_cast<std::chrono::milliseconds>(st->next_keepalive - now);
-          const auto wait = std::clamp(until_keepalive, std::chrono::milliseconds(0), kStreamSlice);
-          auto got = table.wait_events(st->cursor, wait);
-          if (stopping) {
-            sink.done();
-            return true;
-          }
-          std::string out;
-          std::uint64_t sent = 0;
-          if (got.gap) {
-            st->cursor = table.generation();
-            out = resync_message(st->cursor, "missed events are no longer kept; re-list /v1/devices");
-          }
-          for (const auto& e : got.events) {
-            st->cursor = e.generation;
-            if (!st->filter.matches(e.device)) continue;
-            out += sse_message(to_string(e.type), e.generation, dump(e.device));
-            ++sent;
-          }
-          if (!out.empty()) {
-            if (!write(out)) return false;
-            events_sent += sent;
-            st->next_keepalive = std::chrono::steady_clock::now() + keepalive;
-          } else if (std::chrono::steady_clock::now() >= st->next_keepalive) {
-            // A dead client is only noticed when a write fails; this is also that probe.
-            if (!write(sse_comment("keep-alive"))) return false;
-            st->next_keepalive = std::chrono::steady_clock::now() + keepalive;
-          }
-          return true;
-        } catch (const std::exception& e) {
-          log::error(std::string("api: event stream failed: ") + e.what());
-          return false;
-        }
-      });
-}
-
-void ApiServer::Impl::launch(std::unique_ptr<Listener> server, std::string name, bool adopted) {
-  Slot slot;
-  slot.address = local_address(server->fd());
-  slot.name = std::move(name);
-  Listener* raw = server.get();
-  slot.server = std::move(server);
-  slot.thread = std::thread([raw, n = slot.name] {
-    if (!raw->listen_after_bind()) log::error("api: listener on " + n + " ended with an error");
+  // httplib writes the headers and the first chunk; then the server loop takes the
+  // connection over and feeds it on table changes (no thread waits per stream).
+  res.set_chunked_content_provider("text/event-stream", [feed](std::size_t, httplib::DataSink& sink) -> bool {
+    auto* context = RequestContext::current();
+    const auto first = feed->poll(Clock::now());
+    if (!context || !sink.write(first.data(), first.size())) return false;
+    context->adopt_as_stream = feed;
+    return false;  // httplib stops here and writes nothing more
   });
-  // stop() is a no-op on a server that is not running yet; wait, so a stop()
-  // right after start() cannot be lost. The socket already listens (bind_to_port
-  // does listen(2)), so clients connecting meanwhile just queue.
-  // httplib listens with a backlog of 5, which a burst of local clients overflows
-  // (a Unix-socket connect then fails with EAGAIN); calling listen(2) again only
-  // raises it. Not for inherited sockets: their backlog is systemd's setting.
-  if (!adopted) ::listen(raw->fd(), SOMAXCONN);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (!raw->is_running() && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  const bool running = raw->is_running();
-  slots.push_back(std::move(slot));  // stop_locked() joins its thread either way
-  if (!running) throw std::runtime_error("API listener on " + slots.back().name + " failed to start");
 }
 
 void ApiServer::Impl::start(const ApiOptions& opts) {
@@ -486,69 +508,58 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
   options = opts;
   stopping = false;
   try {
+    std::vector<LoopListener> listeners;
     if (opts.inherited_unix_fd >= 0 || !opts.unix_socket.empty()) {
-      auto svr = std::make_unique<Listener>();
-      configure(*svr);
-      svr->set_address_family(AF_UNIX);
       std::string where;
       if (opts.inherited_unix_fd >= 0) {
-        svr->adopt(opts.inherited_unix_fd);  // systemd owns the file; we never remove it
-        where = "unix fd " + std::to_string(opts.inherited_unix_fd);
+        unix_fd = opts.inherited_unix_fd;  // systemd owns the file; we never remove it
+        where = "unix fd " + std::to_string(unix_fd);
       } else {
-        prepare_unix_socket_path(opts.unix_socket);
-        // Created 0660 from the start (umask), not chmod-ed after a window in which
-        // anyone could connect; chmod then fixes group write if the umask was stricter.
-        const mode_t old = umask(0117);
-        const bool ok = svr->bind_to_port(opts.unix_socket, 1);  // the port is ignored for AF_UNIX
-        const int err = errno;
-        umask(old);
-        if (!ok)
-          throw std::runtime_error("cannot listen on unix socket '" + opts.unix_socket + "': " + std::strerror(err));
+        unix_fd = listen_unix(opts.unix_socket);
         socket_path = opts.unix_socket;
         lstat(socket_path.c_str(), &socket_stat);
-        chmod(socket_path.c_str(), 0660);
         where = "unix socket " + socket_path;
       }
-      launch(std::move(svr), where, opts.inherited_unix_fd >= 0);
-      log::info("api: listening on " + where);
+      unix_server = std::make_unique<RequestServer>(unix_fd);
+      configure(*unix_server, false);
+      listeners.push_back({unix_fd, unix_server.get(), false, where});
     }
-
     if (opts.inherited_http_fd >= 0 || !opts.http_host.empty()) {
-      auto svr = std::make_unique<Listener>();
-      configure(*svr);
       std::string where;
       if (opts.inherited_http_fd >= 0) {
+        http_fd = opts.inherited_http_fd;
         int yes = 1;
         // Accepted sockets inherit TCP_NODELAY from the listener on Linux.
-        setsockopt(opts.inherited_http_fd, IPPROTO_TCP, TCP_NODELAY, &yes, sizeof yes);
-        svr->adopt(opts.inherited_http_fd);
-        where = "http fd " + std::to_string(opts.inherited_http_fd);
+        setsockopt(http_fd, IPPROTO_TCP, TCP_NODELAY, &yes, sizeof yes);
+        where = "http fd " + std::to_string(http_fd);
       } else {
-        std::string host = opts.http_host;
-        if (host.size() > 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
-        errno = 0;
-        bool ok;
-        if (opts.http_port == 0) {
-          ok = svr->bind_to_any_port(host) > 0;
-        } else {
-          ok = svr->bind_to_port(host, opts.http_port);
-        }
-        const int err = errno;
-        if (!ok)
-          throw std::runtime_error("cannot listen on http " + opts.http_host + ":" + std::to_string(opts.http_port) +
-                                   ": " + (err ? std::strerror(err) : "address not usable"));
-        where = "http " + opts.http_host + ":" + std::to_string(opts.http_port);
+        http_fd = listen_tcp(opts.http_host, opts.http_port);
+        where = "http " + opts.http_host + ":" + std::to_string(bound_port(http_fd));
       }
-      const auto addr = local_address(svr->fd());
-      if (addr.storage.ss_family == AF_INET)
-        bound_http_port = ntohs(reinterpret_cast<const sockaddr_in&>(addr.storage).sin_port);
-      else if (addr.storage.ss_family == AF_INET6)
-        bound_http_port = ntohs(reinterpret_cast<const sockaddr_in6&>(addr.storage).sin6_port);
-      if (opts.http_port == 0 && opts.inherited_http_fd < 0)
-        where = "http " + opts.http_host + ":" + std::to_string(bound_http_port);
-      launch(std::move(svr), where, opts.inherited_http_fd >= 0);
-      log::info("api: listening on " + where);
+      bound_http_port = bound_port(http_fd);
+      host_check = HostCheck(opts.http_host, bound_to_any(http_fd), opts.allowed_hosts);
+      if (!bound_to_loopback(http_fd))
+        log::warning("api: HTTP listens on " + where +
+                     ", beyond this machine: every host that reaches it can read the camera inventory and its "
+                     "addresses (the API has no authentication); bind it to 127.0.0.1 unless that is meant");
+      if (!host_check.enabled()) log::warning("api: allowed-hosts has \"*\": HTTP answers any Host header");
+      http_server = std::make_unique<RequestServer>(http_fd);
+      configure(*http_server, true);
+      listeners.push_back({http_fd, http_server.get(), true, where});
     }
+
+    LoopOptions lo;
+    lo.threads = opts.loop_threads;
+    lo.blocking_threads = opts.blocking_threads;
+    lo.max_connections = opts.max_connections;
+    lo.client_timeout = std::chrono::milliseconds(opts.client_timeout_ms);
+    lo.idle_timeout = std::chrono::milliseconds(opts.idle_timeout_ms);
+    lo.stream_buffer_limit = opts.stream_buffer_limit;
+    lo.blocking = blocking_target;
+    loop = std::make_unique<ServerLoop>(lo);
+    loop->start(listeners);
+    table.set_change_hook([l = loop.get()] { l->notify_change(); });
+    for (const auto& l : listeners) log::info("api: listening on " + l.name);
   } catch (...) {
     started = true;  // so that stop_locked() undoes what did start
     stop_locked();
@@ -564,26 +575,30 @@ void ApiServer::Impl::stop() {
 
 void ApiServer::Impl::stop_locked() {
   if (!started) return;
-  stopping = true;  // SSE providers see it within kStreamSlice and end their streams
-  for (auto& s : slots) s.server->halt();  // inherited sockets stay systemd's, listening
-  // Give streams the moment they need to end cleanly (a final empty chunk, so
-  // clients see an orderly end rather than a reset); the shutdown below
-  // would cut them anyway.
-  const auto drain_until = std::chrono::steady_clock::now() + 2 * kStreamSlice;
-  while (streams_open.load() > 0 && std::chrono::steady_clock::now() < drain_until)
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  // With the listeners closed no new connection arrives; wake the workers that
-  // sit on idle keep-alive connections or slow clients.
-  for (auto& s : slots) shutdown_accepted_connections(s.address);
-  for (auto& s : slots)
-    if (s.thread.joinable()) s.thread.join();
-  slots.clear();
+  stopping = true;
+  // No change reaches the loop once this returns (the hook is not running).
+  table.set_change_hook(nullptr);
+  if (loop) loop->stop(kStopGrace);
+  loop.reset();
+  // systemd's sockets are closed too: systemd keeps its own copy listening for
+  // the next start; ours only must not outlive the server.
+  for (int* fd : {&unix_fd, &http_fd})
+    if (*fd >= 0) {
+      ::close(*fd);
+      *fd = -1;
+    }
+  unix_server.reset();
+  http_server.reset();
   if (!socket_path.empty()) {
     // Only our own file: if another daemon replaced it meanwhile, it is theirs.
     struct stat now{};
     if (lstat(socket_path.c_str(), &now) == 0 && now.st_ino == socket_stat.st_ino && now.st_dev == socket_stat.st_dev)
       unlink(socket_path.c_str());
     socket_path.clear();
+  }
+  {
+    std::lock_guard cache_lock(list_cache_mutex);
+    list_cache.clear();
   }
   bound_http_port = 0;
   started = false;

@@ -20,11 +20,19 @@ struct ApiOptions {
   int inherited_unix_fd = -1;
   int inherited_http_fd = -1;
 
-  // Every open SSE client holds one worker thread for as long as it listens, so
-  // each listener gets a pool well above the stream limit: plain requests keep
-  // being answered when all streams are taken.
-  int worker_threads = 64;  // per listener
-  int max_event_streams = 32;  // over both listeners; beyond it /v1/events is a 503
+  // HTTP: Host headers answered besides "localhost" and the listening address
+  // ("*": any, turning the DNS-rebinding check off).
+  std::vector<std::string> allowed_hosts;
+
+  // Connections (see server_loop.hpp): a few event loops serve every client; a
+  // client never holds a thread, so these bound memory, not threads.
+  int loop_threads = 2;
+  int blocking_threads = 4;          // Camera Discovery requests wait on these
+  std::size_t max_connections = 4096;  // over both listeners; beyond, a 503 at once
+  int client_timeout_ms = 10000;     // to send a begun request, to take a response
+  int idle_timeout_ms = 60000;       // a kept-alive connection between requests
+  std::size_t max_event_streams = 1024;  // beyond it /v1/events is a 503
+  std::size_t stream_buffer_limit = 1 << 20;  // unread SSE bytes before a stream is dropped
   // Idle SSE streams get a comment line this often, so proxies and NAT boxes keep
   // them open. Tests shorten it.
   int keepalive_ms = 15000;

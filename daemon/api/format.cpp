@@ -272,4 +272,18 @@ std::string render_metrics(const MetricsInput& in) {
   return w.take();
 }
 
+bool etag_matches(std::string_view header, std::string_view etag) {
+  auto strip_weak = [](std::string_view t) { return t.substr(0, 2) == "W/" ? t.substr(2) : t; };
+  etag = strip_weak(etag);
+  while (!header.empty()) {
+    const auto comma = header.find(',');
+    auto item = header.substr(0, comma);
+    header = comma == std::string_view::npos ? std::string_view{} : header.substr(comma + 1);
+    while (!item.empty() && (item.front() == ' ' || item.front() == '\t')) item.remove_prefix(1);
+    while (!item.empty() && (item.back() == ' ' || item.back() == '\t')) item.remove_suffix(1);
+    if (item == "*" || (!item.empty() && strip_weak(item) == etag)) return true;
+  }
+  return false;
+}
+
 }  // namespace rsd::api

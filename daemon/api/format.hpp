@@ -64,6 +64,10 @@ std::optional<std::uint64_t> parse_generation(std::string_view text);
 // field, as the SSE grammar requires. Ends with the blank line that dispatches it.
 std::string sse_message(std::string_view event, std::optional<std::uint64_t> id,
                         std::string_view data);
+// Whether an If-None-Match header value names `etag` (weakly, as RFC 9110 13.1.2
+// says for GET): "*", or a comma-separated list of tags, W/ or not.
+bool etag_matches(std::string_view if_none_match, std::string_view etag);
+
 // A comment line; clients ignore it, proxies see traffic on an idle stream.
 std::string sse_comment(std::string_view text);
 

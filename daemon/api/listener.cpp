@@ -6,7 +6,11 @@
 #include <stdexcept>
 
 #include <dirent.h>
+#include <arpa/inet.h>
+#include <netdb.h>
 #include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -44,70 +48,99 @@ void prepare_unix_socket_path(const std::string& path) {
     throw std::runtime_error("cannot remove stale unix socket '" + path + "': " + std::strerror(errno));
 }
 
-SocketAddress local_address(int fd) {
-  SocketAddress out;
-  socklen_t len = sizeof out.storage;
-  if (fd >= 0 && getsockname(fd, reinterpret_cast<sockaddr*>(&out.storage), &len) == 0) out.length = len;
-  return out;
+int listen_unix(const std::string& path) {
+  prepare_unix_socket_path(path);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+  const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) throw std::runtime_error(std::string("socket(AF_UNIX): ") + std::strerror(errno));
+  // Created 0660 from the start (umask), not chmod-ed after a window in which
+  // anyone could connect; chmod then fixes group write if the umask was stricter.
+  const mode_t old = umask(0117);
+  const int rc = bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr);
+  const int err = errno;
+  umask(old);
+  if (rc != 0 || listen(fd, SOMAXCONN) != 0) {
+    const int e = rc != 0 ? err : errno;
+    close(fd);
+    throw std::runtime_error("cannot listen on unix socket '" + path + "': " + std::strerror(e));
+  }
+  chmod(path.c_str(), 0660);
+  return fd;
+}
+
+int listen_tcp(const std::string& host_in, int port) {
+  std::string host = host_in;
+  if (host.size() > 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  addrinfo hints{};
+  hints.ai_family = AF_UNSPEC;
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_flags = AI_PASSIVE | AI_NUMERICSERV;
+  addrinfo* found = nullptr;
+  const std::string where = "http " + host_in + ":" + std::to_string(port);
+  if (const int rc = getaddrinfo(host.c_str(), std::to_string(port).c_str(), &hints, &found); rc != 0)
+    throw std::runtime_error("cannot listen on " + where + ": " + gai_strerror(rc));
+  int last_error = 0;
+  for (const addrinfo* ai = found; ai; ai = ai->ai_next) {
+    const int fd = socket(ai->ai_family, ai->ai_socktype | SOCK_CLOEXEC, ai->ai_protocol);
+    if (fd < 0) {
+      last_error = errno;
+      continue;
+    }
+    int yes = 1;
+    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    // Accepted sockets inherit TCP_NODELAY from the listener on Linux: responses
+    // go out whole, without waiting for the client's delayed ACK.
+    setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &yes, sizeof yes);
+    if (bind(fd, ai->ai_addr, ai->ai_addrlen) == 0 && listen(fd, SOMAXCONN) == 0) {
+      freeaddrinfo(found);
+      return fd;
+    }
+    last_error = errno;
+    close(fd);
+  }
+  freeaddrinfo(found);
+  throw std::runtime_error("cannot listen on " + where + ": " +
+                           (last_error ? std::strerror(last_error) : "address not usable"));
 }
 
 namespace {
 
-bool same_address(const SocketAddress& a, const SocketAddress& b) {
-  if (!a.valid() || !b.valid() || a.storage.ss_family != b.storage.ss_family) return false;
-  if (a.storage.ss_family == AF_UNIX) {
-    // Accepted Unix connections report the listener's path as their own name.
-    const auto& ua = reinterpret_cast<const sockaddr_un&>(a.storage);
-    const auto& ub = reinterpret_cast<const sockaddr_un&>(b.storage);
-    const auto na = a.length - offsetof(sockaddr_un, sun_path);
-    const auto nb = b.length - offsetof(sockaddr_un, sun_path);
-    return na > 0 && na == nb && std::memcmp(ua.sun_path, ub.sun_path, na) == 0;
-  }
-  // A listener on the wildcard address accepts on whichever address was dialled,
-  // so for it only the port has to agree. `b` is the listener.
-  if (a.storage.ss_family == AF_INET) {
-    const auto& ia = reinterpret_cast<const sockaddr_in&>(a.storage);
-    const auto& ib = reinterpret_cast<const sockaddr_in&>(b.storage);
-    return ia.sin_port == ib.sin_port &&
-           (ib.sin_addr.s_addr == htonl(INADDR_ANY) || ia.sin_addr.s_addr == ib.sin_addr.s_addr);
-  }
-  if (a.storage.ss_family == AF_INET6) {
-    const auto& ia = reinterpret_cast<const sockaddr_in6&>(a.storage);
-    const auto& ib = reinterpret_cast<const sockaddr_in6&>(b.storage);
-    return ia.sin6_port == ib.sin6_port &&
-           (IN6_IS_ADDR_UNSPECIFIED(&ib.sin6_addr) ||
-            std::memcmp(&ia.sin6_addr, &ib.sin6_addr, sizeof ia.sin6_addr) == 0);
-  }
-  return false;
+bool local_name(int fd, sockaddr_storage& ss) {
+  socklen_t len = sizeof ss;
+  return fd >= 0 && getsockname(fd, reinterpret_cast<sockaddr*>(&ss), &len) == 0;
 }
 
 }  // namespace
 
-int shutdown_accepted_connections(const SocketAddress& local) {
-  if (!local.valid()) return 0;
-  DIR* dir = opendir("/proc/self/fd");
-  if (!dir) return 0;
-  const int dir_fd = dirfd(dir);
-  int count = 0;
-  while (const dirent* entry = readdir(dir)) {
-    char* end = nullptr;
-    const long n = std::strtol(entry->d_name, &end, 10);
-    if (end == entry->d_name || *end != '\0' || n == dir_fd) continue;
-    const int fd = static_cast<int>(n);
-    struct stat st{};
-    if (fstat(fd, &st) != 0 || !S_ISSOCK(st.st_mode)) continue;
-    int listening = 0;
-    socklen_t optlen = sizeof listening;
-    if (getsockopt(fd, SOL_SOCKET, SO_ACCEPTCONN, &listening, &optlen) != 0 || listening) continue;
-    if (!same_address(local_address(fd), local)) continue;
-    // The read side only: a worker idle on the connection sees end-of-file and
-    // lets go, while a request already received (or still in the socket's
-    // buffer) is read, answered and written out in full. SHUT_RDWR cut those
-    // (a client saw an empty reply during a package upgrade, 1 in ~500).
-    if (shutdown(fd, SHUT_RD) == 0) ++count;
+int bound_port(int fd) {
+  sockaddr_storage ss{};
+  if (!local_name(fd, ss)) return 0;
+  if (ss.ss_family == AF_INET) return ntohs(reinterpret_cast<const sockaddr_in&>(ss).sin_port);
+  if (ss.ss_family == AF_INET6) return ntohs(reinterpret_cast<const sockaddr_in6&>(ss).sin6_port);
+  return 0;
+}
+
+bool bound_to_any(int fd) {
+  sockaddr_storage ss{};
+  if (!local_name(fd, ss)) return false;
+  if (ss.ss_family == AF_INET) return reinterpret_cast<const sockaddr_in&>(ss).sin_addr.s_addr == htonl(INADDR_ANY);
+  if (ss.ss_family == AF_INET6) return IN6_IS_ADDR_UNSPECIFIED(&reinterpret_cast<const sockaddr_in6&>(ss).sin6_addr);
+  return false;
+}
+
+bool bound_to_loopback(int fd) {
+  sockaddr_storage ss{};
+  if (!local_name(fd, ss)) return false;
+  if (ss.ss_family == AF_INET)
+    return (ntohl(reinterpret_cast<const sockaddr_in&>(ss).sin_addr.s_addr) >> 24) == 127;
+  if (ss.ss_family == AF_INET6) {
+    const auto& a = reinterpret_cast<const sockaddr_in6&>(ss).sin6_addr;
+    return IN6_IS_ADDR_LOOPBACK(&a) ||
+           (IN6_IS_ADDR_V4MAPPED(&a) && a.s6_addr[12] == 127);
   }
-  closedir(dir);
-  return count;
+  return false;
 }
 
 }  // namespace rsd::api

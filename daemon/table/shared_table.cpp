@@ -4,13 +4,24 @@
 
 namespace rsd {
 
+void SharedTable::announce() {
+  changed_.notify_all();
+  std::lock_guard lock(hook_mutex_);
+  if (hook_) hook_();
+}
+
+void SharedTable::set_change_hook(std::function<void()> hook) {
+  std::lock_guard lock(hook_mutex_);
+  hook_ = std::move(hook);
+}
+
 std::optional<DeviceEvent> SharedTable::upsert(const std::string& id, nlohmann::json doc) {
   std::optional<DeviceEvent> event;
   {
     std::lock_guard lock(mutex_);
     event = table_.upsert(id, std::move(doc), now_iso8601());
   }
-  if (event) changed_.notify_all();
+  if (event) announce();
   return event;
 }
 
@@ -20,7 +31,7 @@ std::optional<DeviceEvent> SharedTable::remove(const std::string& id) {
     std::lock_guard lock(mutex_);
     event = table_.remove(id);
   }
-  if (event) changed_.notify_all();
+  if (event) announce();
   return event;
 }
 
@@ -30,7 +41,7 @@ std::optional<DeviceEvent> SharedTable::note_described(const std::string& id) {
     std::lock_guard lock(mutex_);
     event = table_.note_described(id);
   }
-  if (event) changed_.notify_all();
+  if (event) announce();
   return event;
 }
 
@@ -41,7 +52,7 @@ std::vector<DeviceEvent> SharedTable::remove_if(
     std::lock_guard lock(mutex_);
     events = table_.remove_if(pred);
   }
-  if (!events.empty()) changed_.notify_all();
+  if (!events.empty()) announce();
   return events;
 }
 

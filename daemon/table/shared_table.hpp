@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <mutex>
 
 namespace rsd {
@@ -34,6 +35,12 @@ class SharedTable {
   // at once when there are some, when there is a gap, or after close().
   EventsSince wait_events(std::uint64_t generation, std::chrono::milliseconds timeout) const;
 
+  // Runs `hook` (on the writing thread, after the lock is released) whenever an
+  // event was logged: the API's event loops wake on it instead of waiting on the
+  // table. One hook at a time; nullptr removes it, and once this returns the
+  // previous hook is not running and will not run again.
+  void set_change_hook(std::function<void()> hook);
+
   // Wakes every waiter for good: the daemon is stopping.
   void close();
   bool closed() const;
@@ -44,6 +51,9 @@ class SharedTable {
  private:
   mutable std::mutex mutex_;
   mutable std::condition_variable changed_;
+  std::mutex hook_mutex_;  // never held with mutex_
+  std::function<void()> hook_;
+  void announce();  // wakes waiters and runs the hook
   DeviceTable table_;
   bool closed_ = false;
 };

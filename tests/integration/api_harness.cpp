@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
     } else if (flag == "--keepalive-ms") {
       options.keepalive_ms = std::stoi(value);
     } else if (flag == "--max-streams") {
-      options.max_event_streams = std::stoi(value);
+      options.max_event_streams = std::stoul(value);
     } else if (flag == "--log-capacity") {
       log_capacity = std::stoul(value);
     } else if (flag == "--first-generation") {

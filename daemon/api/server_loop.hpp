@@ -1,0 +1,110 @@
+// The API's connections: a few event-loop threads own every client socket, read
+// requests without blocking and run httplib on a request only once it has fully
+// arrived; event streams are fed from the loop on table changes. So no client,
+// however slow, idle or numerous, holds a thread that others need (cpp-httplib's
+// own server parks a worker per connection, and one per SSE stream).
+#pragma once
+
+#include "api/request_head.hpp"
+
+#include <httplib.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace rsd::api {
+
+using Clock = std::chrono::steady_clock;
+
+// httplib's request parsing, routing and response writing, run on a request the
+// loop has already read. (process_request is protected: this is its one user.)
+class RequestServer : public httplib::Server {
+ public:
+  // httplib stops writing a response body once it believes its server socket
+  // closed (svr_sock_ invalid); this server has none of its own, so it carries
+  // the listener's. httplib never uses it otherwise here (no listen(), no stop()).
+  explicit RequestServer(int listener_fd) { svr_sock_ = listener_fd; }
+  // false: the connection must close after what was written.
+  bool serve(httplib::Stream& stream, bool close_connection, bool& connection_closed) {
+    return process_request(stream, close_connection, connection_closed, nullptr);
+  }
+};
+
+// One SSE client's feed. The loop asks it for text on every table change and at
+// each sweep; the feed decides what to send (events, a resync, a keep-alive).
+class EventFeed {
+ public:
+  virtual ~EventFeed() = default;
+  // SSE-framed text to send now, "" if nothing.
+  virtual std::string poll(Clock::time_point now) = 0;
+};
+
+// What a route handler knows of the request besides httplib's Request, and how it
+// turns its response into an event stream. Valid during the handler only.
+struct RequestContext {
+  bool http = false;  // came in on the TCP listener (not the Unix socket)
+  // Set by the /v1/events handler from its content provider: after the first
+  // chunk (headers and the stream's opening), the loop takes the connection over.
+  std::shared_ptr<EventFeed> adopt_as_stream;
+
+  static RequestContext* current();
+};
+
+struct LoopOptions {
+  int threads = 2;                // event loops; each request is served on one
+  int blocking_threads = 4;       // for routes that wait (Camera Discovery)
+  std::size_t max_connections = 4096;  // over every listener; beyond, a 503 at once
+  std::size_t max_blocking = 64;  // requests waiting in or for the blocking pool
+  std::chrono::milliseconds client_timeout{10000};  // to send a request once begun; to read a response
+  std::chrono::milliseconds idle_timeout{60000};    // a kept-alive connection with no request
+  std::size_t stream_buffer_limit = 1 << 20;         // unread SSE bytes before a stream is dropped
+  HeadLimits head;
+  // Routes that may block (the request target): served on the blocking pool.
+  std::function<bool(std::string_view target)> blocking;
+};
+
+struct LoopListener {
+  int fd = -1;  // bound and listening; the loop makes it non-blocking, never closes it
+  RequestServer* server = nullptr;
+  bool http = false;
+  std::string name;
+};
+
+struct LoopStats {
+  std::size_t connections = 0;
+  std::size_t streams = 0;
+  std::uint64_t refused = 0;          // 503 at accept: the connection limit
+  std::uint64_t timed_out = 0;        // closed for not sending or not reading in time
+  std::uint64_t streams_dropped = 0;  // SSE clients that stopped reading
+  std::uint64_t rejected = 0;         // 414/431/413/400 before httplib
+};
+
+class ServerLoop {
+ public:
+  explicit ServerLoop(LoopOptions options);
+  ~ServerLoop();
+  ServerLoop(const ServerLoop&) = delete;
+  ServerLoop& operator=(const ServerLoop&) = delete;
+
+  void start(std::vector<LoopListener> listeners);
+  // From any thread: the table changed; streams poll their feeds.
+  void notify_change();
+  // Stops accepting, answers requests that have fully arrived, ends streams with
+  // their final chunk, and closes everything within `grace` (requests on the
+  // blocking pool are waited for). Idempotent.
+  void stop(std::chrono::milliseconds grace);
+
+  LoopStats stats() const;
+
+  struct Impl;  // opaque; public so the loop's own file can name it
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rsd::api
