@@ -383,6 +383,14 @@ void ApiServer::Impl::handle_metrics(const httplib::Request& req, httplib::Respo
   in.events_sent = events_sent.load();
   in.event_streams = streams_open.load();
   in.event_streams_rejected = streams_rejected.load();
+  if (loop) {
+    const auto ls = loop->stats();
+    in.event_streams_dropped = ls.streams_dropped;
+    in.connections = ls.connections;
+    in.connections_refused = ls.refused;
+    in.timeouts = ls.timed_out;
+    in.rejected = ls.rejected;
+  }
   {
     std::lock_guard lock(requests_mutex);
     in.requests_by_status = requests_by_status;

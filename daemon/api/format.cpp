@@ -265,6 +265,19 @@ std::string render_metrics(const MetricsInput& in) {
   w.sample("rsd_event_streams", {}, in.event_streams);
   w.family("rsd_event_streams_rejected_total", "counter", "SSE streams refused at the limit (503).");
   w.sample("rsd_event_streams_rejected_total", {}, in.event_streams_rejected);
+  w.family("rsd_event_streams_dropped_total", "counter",
+           "SSE streams closed because their client stopped reading (buffer limit or stall).");
+  w.sample("rsd_event_streams_dropped_total", {}, in.event_streams_dropped);
+  w.family("rsd_api_connections", "gauge", "Open API connections, both listeners.");
+  w.sample("rsd_api_connections", {}, in.connections);
+  w.family("rsd_api_connections_refused_total", "counter", "Connections answered 503 at the connection limit.");
+  w.sample("rsd_api_connections_refused_total", {}, in.connections_refused);
+  w.family("rsd_api_timeouts_total", "counter",
+           "Connections closed for not sending a request, or not reading a response, in time.");
+  w.sample("rsd_api_timeouts_total", {}, in.timeouts);
+  w.family("rsd_api_requests_rejected_total", "counter",
+           "Requests refused before parsing: 414, 431, 413 or a bad Content-Length.");
+  w.sample("rsd_api_requests_rejected_total", {}, in.rejected);
 
   w.family("rsd_api_requests_total", "counter", "API requests answered, by HTTP status.");
   for (const auto& [status, n] : in.requests_by_status)

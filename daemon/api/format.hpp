@@ -83,6 +83,11 @@ struct MetricsInput {
   std::uint64_t events_sent = 0;
   std::size_t event_streams = 0;
   std::uint64_t event_streams_rejected = 0;
+  std::uint64_t event_streams_dropped = 0;
+  std::size_t connections = 0;
+  std::uint64_t connections_refused = 0;
+  std::uint64_t timeouts = 0;
+  std::uint64_t rejected = 0;
   std::map<int, std::uint64_t> requests_by_status;
   std::optional<UsbStatus> usb;  // nothing when USB is turned off
 };

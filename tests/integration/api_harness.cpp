@@ -4,6 +4,8 @@
 //
 //   api_harness [--socket PATH] [--http HOST:PORT] [--keepalive-ms N]
 //               [--max-streams N] [--log-capacity N] [--first-generation N]
+//               [--max-connections N] [--client-timeout-ms N] [--idle-timeout-ms N]
+//               [--stream-buffer-limit BYTES] [--allowed-host NAME]...
 // stdout: "ready http_port=N" once serving; stdin lines:
 //   upsert ID {json}   remove ID   domains [DomainStatus json...]   stop
 // (a domain's "complete" is true unless the line says otherwise)
@@ -60,6 +62,16 @@ int main(int argc, char** argv) {
       options.keepalive_ms = std::stoi(value);
     } else if (flag == "--max-streams") {
       options.max_event_streams = std::stoul(value);
+    } else if (flag == "--max-connections") {
+      options.max_connections = std::stoul(value);
+    } else if (flag == "--client-timeout-ms") {
+      options.client_timeout_ms = std::stoi(value);
+    } else if (flag == "--idle-timeout-ms") {
+      options.idle_timeout_ms = std::stoi(value);
+    } else if (flag == "--stream-buffer-limit") {
+      options.stream_buffer_limit = std::stoul(value);
+    } else if (flag == "--allowed-host") {
+      options.allowed_hosts.push_back(value);
     } else if (flag == "--log-capacity") {
       log_capacity = std::stoul(value);
     } else if (flag == "--first-generation") {
