@@ -116,6 +116,8 @@ int main(int argc, char** argv) {
   api_options.unix_socket = config.socket_path;
   api_options.http_host = config.http_host;
   api_options.http_port = config.http_port;
+  api_options.allowed_hosts = config.allowed_hosts;
+  api_options.max_connections = config.max_clients;
   try {
     // Socket activation: systemd's sockets take the place of the configured ones.
     const auto passed = rsd::service::take_listen_sockets();

@@ -45,6 +45,16 @@ void parse_http(const std::string& text, Config& config, const std::string& wher
   config.http_port = value;
 }
 
+// A Host name (or address) the HTTP listener answers for; "*" for any.
+std::string parse_allowed_host(const std::string& text, const std::string& where) {
+  const bool bad = text.empty() || text.size() > 253 ||
+                   text.find_first_of(" \t\r\n/?#@") != std::string::npos;
+  if (bad)
+    throw ConfigError(where + ": expected a host name or address as a browser sends it in Host (or '*'), not '" +
+                      text + "'");
+  return text;
+}
+
 void parse_socket(const std::string& text, Config& config, const std::string& where) {
   if (text.empty()) throw ConfigError(where + ": socket path is empty (use 'off' to disable)");
   config.socket_path = text == "off" ? "" : text;
@@ -149,6 +159,16 @@ void apply_config_json(const std::string& text, Config& config) {
     } else if (key == "describe-timeout") {
       config.describe_timeout_s = parse_seconds(value.is_number_integer() ? std::to_string(value.get<long long>())
                                                                          : value.dump(), at);
+    } else if (key == "allowed-hosts") {
+      if (!value.is_array()) throw ConfigError(at + " must be a list of host names");
+      config.allowed_hosts.clear();
+      for (const auto& h : value) {
+        if (!h.is_string()) throw ConfigError(at + " must hold strings, not " + h.dump());
+        config.allowed_hosts.push_back(parse_allowed_host(h.get<std::string>(), at));
+      }
+    } else if (key == "max-clients") {
+      config.max_clients = parse_limit(value.is_number_integer() ? std::to_string(value.get<long long>())
+                                                                 : value.dump(), at);
     } else if (key == "max-devices-per-participant" || key == "max-devices-per-domain") {
       const std::size_t n = parse_limit(value.is_number_integer() ? std::to_string(value.get<long long>())
                                                                  : value.dump(), at);
@@ -156,7 +176,8 @@ void apply_config_json(const std::string& text, Config& config) {
     } else {
       throw ConfigError(where + ": unknown key \"" + key +
                         "\" (known: domains, socket, http, usb, participant-name, log-level, "
-                        "cyclonedds-config, max-devices-per-participant, max-devices-per-domain, describe-timeout, describe-eagerly)");
+                        "cyclonedds-config, max-devices-per-participant, max-devices-per-domain, describe-timeout, describe-eagerly, "
+                        "allowed-hosts, max-clients)");
     }
   }
 }
@@ -166,7 +187,7 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
   Config flags_only;  // collects what the flags set, to apply over the file
   bool set_domains = false, set_socket = false, set_http = false, set_usb = false, set_name = false,
        set_level = false, set_cyclone = false, set_per_participant = false, set_per_domain = false,
-       set_describe = false, set_eager = false;
+       set_describe = false, set_eager = false, set_hosts = false, set_clients = false;
   std::string config_file;
   bool explicit_config = false;
   std::vector<int> domains;
@@ -229,6 +250,12 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
     } else if (arg == "--describe-timeout") {
       flags_only.describe_timeout_s = parse_seconds(next(), arg);
       set_describe = true;
+    } else if (arg == "--allowed-host") {
+      flags_only.allowed_hosts.push_back(parse_allowed_host(next(), arg));
+      set_hosts = true;
+    } else if (arg == "--max-clients") {
+      flags_only.max_clients = parse_limit(next(), arg);
+      set_clients = true;
     } else if (arg == "--max-devices-per-domain") {
       flags_only.max_devices_per_domain = parse_limit(next(), arg);
       set_per_domain = true;
@@ -257,6 +284,8 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
   if (set_per_participant) config.max_devices_per_participant = flags_only.max_devices_per_participant;
   if (set_per_domain) config.max_devices_per_domain = flags_only.max_devices_per_domain;
   if (set_describe) config.describe_timeout_s = flags_only.describe_timeout_s;
+  if (set_hosts) config.allowed_hosts = flags_only.allowed_hosts;
+  if (set_clients) config.max_clients = flags_only.max_clients;
   if (set_eager) {
     config.describe_eagerly_all = flags_only.describe_eagerly_all;
     config.describe_eagerly = flags_only.describe_eagerly;
@@ -284,6 +313,11 @@ Options:
                              else /run/rs-discoveryd/api.sock for root,
                              else $XDG_RUNTIME_DIR/rs-discoveryd.sock)
       --http HOST:PORT|off   HTTP listener for the API (default: 127.0.0.1:8035)
+      --allowed-host NAME    a Host name HTTP answers for besides localhost and its own
+                             address (repeat; '*': any). Others get 421, which keeps web
+                             pages (DNS rebinding) from reading the API through a browser
+      --max-clients N        API connections at once, both listeners (default: 4096);
+                             beyond, new clients get 503 with Retry-After
       --no-usb               do not watch local USB cameras
       --participant-name NAME
                              DDS participant name others see (default: rs-discoveryd)
@@ -306,8 +340,9 @@ Options:
 
 Config file keys: domains, socket, http, usb, participant-name, log-level,
 cyclonedds-config, max-devices-per-participant, max-devices-per-domain,
-describe-timeout, describe-eagerly (true, false or a list of domains; otherwise the
-same meanings as the flags).
+describe-timeout, describe-eagerly (true, false or a list of domains), allowed-hosts
+(a list), max-clients; otherwise the same meanings as the flags. The HTTP and socket
+settings (http, socket, allowed-hosts, max-clients) take effect at start, not on SIGHUP.
 
 API: GET /v1/devices, /v1/devices/{id}, /v1/devices/{id}/description,
 /v1/events (Server-Sent Events),

@@ -32,6 +32,10 @@ struct Config {
   // Describe the devices of these domains as they appear (all: every domain).
   bool describe_eagerly_all = false;
   std::vector<int> describe_eagerly;
+  // HTTP answers these Host names besides localhost and its own address ("*": any).
+  std::vector<std::string> allowed_hosts;
+  // API clients at once, over both listeners; beyond, a 503 with Retry-After.
+  std::size_t max_clients = 4096;
   std::string config_file;        // where the file part came from ("" : none)
 };
 

@@ -140,6 +140,8 @@ void Service::reload() {
   std::vector<std::string> restart_only;
   if (next.socket_path != config_.socket_path) restart_only.push_back("socket");
   if (next.http_host != config_.http_host || next.http_port != config_.http_port) restart_only.push_back("http");
+  if (next.allowed_hosts != config_.allowed_hosts) restart_only.push_back("allowed-hosts");
+  if (next.max_clients != config_.max_clients) restart_only.push_back("max-clients");
   if (next.participant_name != config_.participant_name) restart_only.push_back("participant-name");
   if (next.cyclonedds_config != config_.cyclonedds_config) restart_only.push_back("cyclonedds-config");
   if (next.max_devices_per_participant != config_.max_devices_per_participant)

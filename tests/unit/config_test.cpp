@@ -143,3 +143,23 @@ TEST(Config, DescribeEagerly) {
     EXPECT_THROW(rsd::apply_config_json(bad, x), ConfigError) << bad;
   }
 }
+
+TEST(Config, AllowedHostsAndMaxClients) {
+  const Config defaults;
+  EXPECT_TRUE(defaults.allowed_hosts.empty());
+  EXPECT_EQ(defaults.max_clients, 4096u);
+  Config c;
+  rsd::apply_config_json(R"({"allowed-hosts": ["cams.lab.example", "*"], "max-clients": 200})", c);
+  EXPECT_EQ(c.allowed_hosts, (std::vector<std::string>{"cams.lab.example", "*"}));
+  EXPECT_EQ(c.max_clients, 200u);
+  auto cl = parse({"--allowed-host", "a.example", "--allowed-host=b.example:8035", "--max-clients", "64"});
+  EXPECT_EQ(cl.config.allowed_hosts, (std::vector<std::string>{"a.example", "b.example:8035"}));
+  EXPECT_EQ(cl.config.max_clients, 64u);
+  for (const char* bad : {R"({"allowed-hosts": "a.example"})", R"({"allowed-hosts": [""]})",
+                          R"({"allowed-hosts": ["http://a.example/"]})", R"({"allowed-hosts": [3]})",
+                          R"({"max-clients": 0})", R"({"max-clients": "many"})"}) {
+    Config x;
+    EXPECT_THROW(rsd::apply_config_json(bad, x), ConfigError) << bad;
+  }
+  EXPECT_THROW(parse({"--allowed-host", "has space"}), ConfigError);
+}
