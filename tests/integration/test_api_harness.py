@@ -1,5 +1,6 @@
 """The real ApiServer over a table fed through stdin (tests/integration/api_harness):
 what a DDS-fed table cannot produce on cue. Every test has its own socket and port."""
+import json
 import concurrent.futures
 import os
 import signal
@@ -523,3 +524,27 @@ def test_killed_server_leaves_socket_next_start_replaces_it(harness):
     assert os.path.exists(h.socket)
     h2 = harness(http=False)
     assert h2.ready.startswith("ready"), h2.ready
+
+
+def test_device_list_has_an_etag_per_generation_and_answers_304(harness):
+    """A poller that sends back the ETag gets a 304 until the table changes."""
+    h = harness()
+    h.upsert(*dev(1))
+    for target in (h.socket, h.tcp):
+        status, headers, body = request(target, "/v1/devices")
+        assert status == 200
+        etag = headers["etag"]
+        assert etag == f'"{json.loads(body)["generation"]}"'
+        status, headers, body = request(target, "/v1/devices", headers={"If-None-Match": etag})
+        assert (status, body, headers["etag"]) == (304, b"", etag)
+        # Filters share the generation; each filter's body is its own.
+        status, _, body = request(target, "/v1/devices?domain=5")
+        assert status == 200 and json.loads(body)["devices"] == []
+    generation = h.upsert(*dev(2))
+    status, headers, body = request(h.tcp, "/v1/devices", headers={"If-None-Match": etag})
+    assert status == 200 and headers["etag"] == f'"{generation}"'
+    assert [d["serial"] for d in json.loads(body)["devices"]] == ["123622270701", "123622270702"]
+    # Before the first discovery ends the tag says so: a complete list never matches it.
+    h.command('domains [{"domain": 0, "complete": false}]')
+    _, headers, _ = request(h.tcp, "/v1/devices")
+    assert headers["etag"] == f'"{generation}-partial"'
