@@ -1,6 +1,8 @@
 // The daemon's JSON documents as the public types, and the small pure helpers.
 #include "internal.hpp"
 
+#include "rsd_model/status.hpp"
+
 namespace rsdiscovery {
 
 const char* version() { return RSDISCOVERY_VERSION; }
@@ -36,33 +38,6 @@ using nlohmann::json;
 
 [[noreturn]] void malformed(const std::string& what) {
   throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: " + what);
-}
-
-// Text of a string member; numbers are written out (a serial sent as a number is
-// still a serial); anything else or absent gives "".
-std::string text(const json& doc, const char* key) {
-  auto it = doc.find(key);
-  if (it == doc.end()) return {};
-  if (it->is_string()) return it->get<std::string>();
-  if (it->is_number()) return it->dump();
-  return {};
-}
-
-std::uint64_t count(const json& doc, const char* key) {
-  auto it = doc.find(key);
-  if (it != doc.end() && it->is_number_unsigned()) return it->get<std::uint64_t>();
-  if (it != doc.end() && it->is_number_integer() && it->get<std::int64_t>() >= 0)
-    return static_cast<std::uint64_t>(it->get<std::int64_t>());
-  return 0;
-}
-
-std::optional<int> integer(const json& doc, const char* key) {
-  auto it = doc.find(key);
-  if (it != doc.end() && it->is_number_integer()) {
-    auto v = it->get<std::int64_t>();
-    if (v >= INT32_MIN && v <= INT32_MAX) return static_cast<int>(v);
-  }
-  return std::nullopt;
 }
 
 }  // namespace
@@ -110,31 +85,39 @@ Device device_from_json(const json& doc) {
   return d;
 }
 
+// The model (proto/model/rsd_model/status.hpp) reads the status documents, with the
+// daemon's own spelling and checks; these map them onto the public types.
 DomainStatus domain_from_json(const json& doc) {
-  if (!doc.is_object()) malformed("a domain entry is not a JSON object");
-  auto domain = integer(doc, "domain");
-  if (!domain) malformed("a domain entry has no \"domain\" number");
+  rsd::model::DomainStatus m;
+  try {
+    m = rsd::model::domain_status_from_json(doc);
+  } catch (const rsd::model::MalformedDocument& e) {
+    malformed(e.what());
+  }
   DomainStatus s;
-  s.domain = *domain;
-  s.state = text(doc, "state");
-  s.participant_guid = text(doc, "participant-guid");
-  s.devices = count(doc, "devices");
-  s.accepted = count(doc, "accepted");
-  if (auto r = doc.find("rejected"); r != doc.end() && r->is_object())
-    for (const auto& [reason, n] : r->items())
-      if (n.is_number_integer() || n.is_number_unsigned()) s.rejected[reason] = count(*r, reason.c_str());
-  s.complete = reports_complete(doc);
+  s.domain = m.domain;
+  s.state = std::string(rsd::model::to_string(m.state));
+  s.participant_guid = m.participant_guid;
+  s.devices = m.devices;
+  s.accepted = m.accepted;
+  s.rejected = m.rejected;
+  s.complete = m.complete;
   s.json = doc.dump();
   return s;
 }
 
 Health health_from_json(const json& doc) {
-  if (!doc.is_object() || !doc.contains("status")) malformed("/healthz has no \"status\"");
+  rsd::model::Health m;
+  try {
+    m = rsd::model::health_from_json(doc);
+  } catch (const rsd::model::MalformedDocument& e) {
+    malformed(e.what());
+  }
   Health h;
-  h.status = text(doc, "status");
-  h.version = text(doc, "version");
-  h.devices = count(doc, "devices");
-  h.complete = reports_complete(doc);
+  h.status = m.status;
+  h.version = m.version;
+  h.devices = m.devices;
+  h.complete = m.complete;
   h.json = doc.dump();
   return h;
 }

@@ -352,22 +352,20 @@ void ApiServer::Impl::handle_domains(const httplib::Request& req, httplib::Respo
 
 void ApiServer::Impl::handle_health(const httplib::Request& req, httplib::Response& res) {
   if (auto err = check_params("/healthz", req.params, {})) return send_error(res, 400, *err);
-  const bool done = complete(domains());
-  auto snap = table.snapshot();
-  nlohmann::json usb = {{"state", "off"}};
-  if (const auto u = status.usb()) {
-    usb = {{"state", u->state}, {"devices", u->devices}};
-    if (!u->error.empty()) usb["error"] = u->error;
+  model::Health health;
+  health.version = version;
+  health.complete = complete(domains());
+  {
+    const auto snap = table.snapshot();
+    health.devices = snap.devices.size();
+    health.generation = snap.generation;
   }
-  send_json(res, 200,
-            {{"status", "ok"},
-             {"version", version},
-             {"devices", snap.devices.size()},
-             {"generation", snap.generation},
-             // "ok" says the daemon works; this says whether its device count is
-             // final yet (false for the first seconds after a start).
-             {"complete", done},
-             {"usb", std::move(usb)}});
+  if (const auto u = status.usb()) {
+    health.usb.state = u->state;
+    health.usb.devices = u->devices;
+    if (!u->error.empty()) health.usb.error = u->error;
+  }
+  send_json(res, 200, model::to_json(health));
 }
 
 void ApiServer::Impl::handle_metrics(const httplib::Request& req, httplib::Response& res) {

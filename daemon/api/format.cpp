@@ -138,22 +138,7 @@ std::string sse_comment(std::string_view text) {
   return out;
 }
 
-nlohmann::json domain_status_json(const DomainStatus& s) {
-  nlohmann::json rejected = nlohmann::json::object();
-  for (const auto& [reason, count] : s.rejected) rejected[reason] = count;
-  return {{"domain", s.domain},
-          {"state", to_string(s.state)},
-          {"participant-guid", s.participant_guid},
-          {"error", s.error},
-          {"devices", s.devices},
-          {"accepted", s.accepted},
-          {"stopping", s.stopping},
-          {"rejected", rejected},
-          {"rebuilds", s.rebuilds},
-          {"refreshes", s.refreshes},
-          {"lost-servers", s.lost_servers},
-          {"complete", s.complete}};
-}
+nlohmann::json domain_status_json(const DomainStatus& s) { return model::to_json(s); }
 
 std::string prometheus_label_value(std::string_view raw) {
   std::string out;

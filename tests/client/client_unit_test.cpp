@@ -3,6 +3,7 @@
 // error paths the real daemon cannot be made to take (malformed replies, another API
 // version) and the watch's resume/re-list logic, event by event.
 #include "internal.hpp"
+#include "rsd_model/status.hpp"
 #include "table/device_table.hpp"
 #include "usb/usb_device.hpp"
 
@@ -231,8 +232,22 @@ TEST(Device, CompleteUnlessTheDocumentSaysOtherwise) {
   EXPECT_TRUE(detail::reports_complete(json::parse(R"({"devices":[]})")));  // an older daemon
   EXPECT_TRUE(detail::reports_complete(json::parse(R"({"complete":true})")));
   EXPECT_FALSE(detail::reports_complete(json::parse(R"({"complete":false})")));
-  EXPECT_FALSE(detail::health_from_json(json::parse(R"({"status":"ok","complete":false})")).complete);
-  EXPECT_FALSE(detail::domain_from_json(json::parse(R"({"domain":1,"complete":false})")).complete);
+  // The daemon's own documents (the shared model writes them), still settling.
+  rsd::model::Health health;
+  health.complete = false;
+  EXPECT_FALSE(detail::health_from_json(rsd::model::to_json(health)).complete);
+  rsd::model::DomainStatus domain;
+  domain.domain = 1;
+  domain.state = rsd::model::DomainState::settling;
+  EXPECT_FALSE(detail::domain_from_json(rsd::model::to_json(domain)).complete);
+  domain.complete = true;
+  domain.state = rsd::model::DomainState::running;
+  const auto running = detail::domain_from_json(rsd::model::to_json(domain));
+  EXPECT_TRUE(running.complete);
+  EXPECT_EQ(running.state, "running");
+  // What is not the daemon's document is named, not half read.
+  EXPECT_THROW(detail::domain_from_json(json::parse(R"({"domain":1,"complete":false})")), Error);
+  EXPECT_THROW(detail::health_from_json(json::parse(R"({"status":"ok"})")), Error);
 }
 
 TEST(Filter, BuildsTheQueryWithEncoding) {
@@ -255,7 +270,10 @@ class FakeDaemon {
     path_ = (dir_ / "api.sock").string();
     server_.set_address_family(AF_UNIX);
     server_.Get("/healthz", [](const httplib::Request&, httplib::Response& res) {
-      res.set_content(R"({"status":"ok","version":"9.9.9","devices":0})", "application/json");
+      rsd::model::Health health;
+      health.version = "9.9.9";
+      health.complete = true;
+      res.set_content(rsd::model::to_json(health).dump(), "application/json");
     });
     server_.Get("/v1/devices", [this](const httplib::Request& req, httplib::Response& res) {
       std::lock_guard lock(m_);

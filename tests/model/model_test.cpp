@@ -1,6 +1,7 @@
 // The device model: what it reads it writes back unchanged, whatever a peer sent; the
 // lookup rule; the default-socket rule the daemon and the clients share.
 #include "rsd_model/device.hpp"
+#include "rsd_model/status.hpp"
 #include "rsd_model/socket_path.hpp"
 
 #include <gtest/gtest.h>
@@ -69,3 +70,58 @@ TEST(Model, DefaultSocketRule) {
 }
 
 }  // namespace
+
+// ---- status documents -------------------------------------------------------------------
+
+TEST(StatusModel, DomainStatusRoundTripsWithEveryKey) {
+  rsd::model::DomainStatus s;
+  s.domain = 7;
+  s.state = rsd::model::DomainState::rebuilding;
+  s.participant_guid = "01107948.66908ead.429992d1.000001c1";
+  s.devices = 3;
+  s.accepted = 12;
+  s.stopping = 1;
+  s.rejected = {{"malformed", 2}};
+  s.rebuilds = 4;
+  s.refreshes = 2;
+  s.lost_servers = 1;
+  s.complete = true;
+  const auto doc = rsd::model::to_json(s);
+  EXPECT_EQ(doc.size(), 12u);  // the spec's DomainStatus, every required key
+  EXPECT_EQ(doc["state"], "rebuilding");
+  EXPECT_EQ(doc["lost-servers"], 1);
+  EXPECT_EQ(rsd::model::to_json(rsd::model::domain_status_from_json(doc)), doc);
+}
+
+TEST(StatusModel, EveryDomainStateHasItsName) {
+  using rsd::model::DomainState;
+  for (auto st : {DomainState::settling, DomainState::running, DomainState::rebuilding, DomainState::failed,
+                  DomainState::stopped})
+    EXPECT_EQ(rsd::model::parse_domain_state(rsd::model::to_string(st)), st);
+  EXPECT_FALSE(rsd::model::parse_domain_state("joining"));
+}
+
+TEST(StatusModel, HealthRoundTripsAndUsbOffHasNoCount) {
+  rsd::model::Health h;
+  h.version = "0.1.0";
+  h.devices = 2;
+  h.generation = 99;
+  h.complete = true;
+  auto doc = rsd::model::to_json(h);
+  EXPECT_EQ(doc["usb"], nlohmann::json({{"state", "off"}}));
+  EXPECT_EQ(rsd::model::to_json(rsd::model::health_from_json(doc)), doc);
+  h.usb = {"unavailable", 0, "no /dev/bus/usb"};
+  doc = rsd::model::to_json(h);
+  EXPECT_EQ(doc["usb"]["error"], "no /dev/bus/usb");
+  EXPECT_EQ(rsd::model::to_json(rsd::model::health_from_json(doc)), doc);
+}
+
+TEST(StatusModel, MalformedDocumentsAreNamed) {
+  for (const char* bad : {R"([])", R"({"domain": 1})", R"({"domain": 300, "state": "running"})",
+                          R"({"domain": 1, "state": "joining"})"}) {
+    EXPECT_THROW(rsd::model::domain_status_from_json(nlohmann::json::parse(bad)), rsd::model::MalformedDocument)
+        << bad;
+  }
+  EXPECT_THROW(rsd::model::health_from_json(nlohmann::json::parse(R"({"status": "ok", "version": 1})")),
+               rsd::model::MalformedDocument);
+}

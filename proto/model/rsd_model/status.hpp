@@ -1,0 +1,87 @@
+// The API's status documents as types: a domain's entry of /v1/domains
+// (proto/openapi.yaml `DomainStatus`) and /healthz (`Health`). The daemon fills
+// them from its sources and writes them through to_json; the C++ client reads
+// them through from_json: one spelling of every key, as for devices (device.hpp).
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+namespace rsd::model {
+
+// A domain's life: settling (participant made, reader not yet created) ->
+// running; rebuilding while its participant is made anew; failed when it cannot
+// be joined; stopped once left.
+enum class DomainState { settling, running, rebuilding, failed, stopped };
+
+constexpr std::string_view to_string(DomainState state) {
+  switch (state) {
+    case DomainState::settling: return "settling";
+    case DomainState::running: return "running";
+    case DomainState::rebuilding: return "rebuilding";
+    case DomainState::failed: return "failed";
+    case DomainState::stopped: return "stopped";
+  }
+  return "stopped";  // not reached: every enumerator is named above
+}
+
+constexpr std::optional<DomainState> parse_domain_state(std::string_view name) {
+  for (auto s : {DomainState::settling, DomainState::running, DomainState::rebuilding, DomainState::failed,
+                 DomainState::stopped})
+    if (to_string(s) == name) return s;
+  return std::nullopt;
+}
+
+struct DomainStatus {
+  int domain = 0;
+  DomainState state = DomainState::stopped;
+  std::string participant_guid;  // the daemon's own, "" until the participant exists
+  std::string error;             // why the domain is failed, else ""
+  std::size_t devices = 0;       // devices of this domain now in the table
+  std::uint64_t accepted = 0;    // device-info messages taken into the table
+  std::uint64_t stopping = 0;    // 'stopping' messages honoured
+  std::map<std::string, std::uint64_t> rejected;  // reason -> count
+  std::uint64_t rebuilds = 0;    // times the participant was torn down and made anew
+  std::uint64_t refreshes = 0;   // of those, made anew by itself to find a lost server again
+  std::size_t lost_servers = 0;  // servers lost without 'stopping', still looked for
+  // The domain's first discovery is over: its reader has existed long enough for
+  // every server already on the network to have announced its devices (or the
+  // domain failed, so nothing more will come). Until then a device list is partial.
+  bool complete = false;
+};
+
+// The local USB source as /healthz shows it.
+struct UsbHealth {
+  std::string state = "off";  // off, stopped, unavailable, hotplug, polling
+  std::optional<std::size_t> devices;  // absent when off
+  std::optional<std::string> error;    // why unavailable
+};
+
+struct Health {
+  std::string status = "ok";
+  std::string version;
+  std::size_t devices = 0;
+  std::uint64_t generation = 0;
+  // Every domain's first discovery is over; "ok" says the daemon works, this
+  // whether its device count is final yet (false for the first seconds).
+  bool complete = false;
+  UsbHealth usb;
+};
+
+// A document that is not what the spec says (a missing or mistyped key).
+struct MalformedDocument : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+nlohmann::json to_json(const DomainStatus& status);
+DomainStatus domain_status_from_json(const nlohmann::json& doc);  // throws MalformedDocument
+nlohmann::json to_json(const Health& health);
+Health health_from_json(const nlohmann::json& doc);  // throws MalformedDocument
+
+}  // namespace rsd::model

@@ -1,0 +1,130 @@
+#include "rsd_model/status.hpp"
+
+namespace rsd::model {
+
+namespace {
+
+// Every key of the two documents: nothing else spells them.
+namespace key {
+constexpr const char* domain = "domain";
+constexpr const char* state = "state";
+constexpr const char* participant_guid = "participant-guid";
+constexpr const char* error = "error";
+constexpr const char* devices = "devices";
+constexpr const char* accepted = "accepted";
+constexpr const char* stopping = "stopping";
+constexpr const char* rejected = "rejected";
+constexpr const char* rebuilds = "rebuilds";
+constexpr const char* refreshes = "refreshes";
+constexpr const char* lost_servers = "lost-servers";
+constexpr const char* complete = "complete";
+constexpr const char* status = "status";
+constexpr const char* version = "version";
+constexpr const char* generation = "generation";
+constexpr const char* usb = "usb";
+}  // namespace key
+
+const nlohmann::json& member(const nlohmann::json& doc, const char* name, const char* what) {
+  const auto it = doc.find(name);
+  if (it == doc.end()) throw MalformedDocument(std::string(what) + " has no \"" + name + "\"");
+  return *it;
+}
+
+std::string text(const nlohmann::json& doc, const char* name, const char* what) {
+  const auto& v = member(doc, name, what);
+  if (!v.is_string()) throw MalformedDocument(std::string(what) + ": \"" + name + "\" is not a string");
+  return v.get<std::string>();
+}
+
+std::uint64_t count_value(const nlohmann::json& v, const std::string& name, const char* what) {
+  if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<std::int64_t>() >= 0))
+    throw MalformedDocument(std::string(what) + ": \"" + name + "\" is not a count");
+  return v.get<std::uint64_t>();
+}
+
+std::uint64_t count(const nlohmann::json& doc, const char* name, const char* what) {
+  return count_value(member(doc, name, what), name, what);
+}
+
+bool flag(const nlohmann::json& doc, const char* name, const char* what) {
+  const auto& v = member(doc, name, what);
+  if (!v.is_boolean()) throw MalformedDocument(std::string(what) + ": \"" + name + "\" is not true or false");
+  return v.get<bool>();
+}
+
+void want_object(const nlohmann::json& doc, const char* what) {
+  if (!doc.is_object()) throw MalformedDocument(std::string(what) + " is not a JSON object");
+}
+
+}  // namespace
+
+nlohmann::json to_json(const DomainStatus& s) {
+  nlohmann::json rejected = nlohmann::json::object();
+  for (const auto& [reason, n] : s.rejected) rejected[reason] = n;
+  return {{key::domain, s.domain},
+          {key::state, to_string(s.state)},
+          {key::participant_guid, s.participant_guid},
+          {key::error, s.error},
+          {key::devices, s.devices},
+          {key::accepted, s.accepted},
+          {key::stopping, s.stopping},
+          {key::rejected, std::move(rejected)},
+          {key::rebuilds, s.rebuilds},
+          {key::refreshes, s.refreshes},
+          {key::lost_servers, s.lost_servers},
+          {key::complete, s.complete}};
+}
+
+DomainStatus domain_status_from_json(const nlohmann::json& doc) {
+  constexpr const char* what = "a domain entry";
+  want_object(doc, what);
+  DomainStatus s;
+  const auto& domain = member(doc, key::domain, what);
+  if (!domain.is_number_integer() || domain.get<std::int64_t>() < 0 || domain.get<std::int64_t>() > 232)
+    throw MalformedDocument("a domain entry's \"domain\" is not a domain id");
+  s.domain = domain.get<int>();
+  const auto state = text(doc, key::state, what);
+  const auto parsed = parse_domain_state(state);
+  if (!parsed) throw MalformedDocument("a domain entry has an unknown state '" + state + "'");
+  s.state = *parsed;
+  s.participant_guid = text(doc, key::participant_guid, what);
+  s.error = text(doc, key::error, what);
+  s.devices = count(doc, key::devices, what);
+  s.accepted = count(doc, key::accepted, what);
+  s.stopping = count(doc, key::stopping, what);
+  const auto& rejected = member(doc, key::rejected, what);
+  if (!rejected.is_object()) throw MalformedDocument("a domain entry's \"rejected\" is not an object");
+  for (const auto& [reason, n] : rejected.items()) s.rejected[reason] = count_value(n, reason, what);
+  s.rebuilds = count(doc, key::rebuilds, what);
+  s.refreshes = count(doc, key::refreshes, what);
+  s.lost_servers = count(doc, key::lost_servers, what);
+  s.complete = flag(doc, key::complete, what);
+  return s;
+}
+
+nlohmann::json to_json(const Health& h) {
+  nlohmann::json usb = {{key::state, h.usb.state}};
+  if (h.usb.devices) usb[key::devices] = *h.usb.devices;
+  if (h.usb.error) usb[key::error] = *h.usb.error;
+  return {{key::status, h.status},         {key::version, h.version},   {key::devices, h.devices},
+          {key::generation, h.generation}, {key::complete, h.complete}, {key::usb, std::move(usb)}};
+}
+
+Health health_from_json(const nlohmann::json& doc) {
+  constexpr const char* what = "/healthz";
+  want_object(doc, what);
+  Health h;
+  h.status = text(doc, key::status, what);
+  h.version = text(doc, key::version, what);
+  h.devices = count(doc, key::devices, what);
+  h.generation = count(doc, key::generation, what);
+  h.complete = flag(doc, key::complete, what);
+  const auto& usb = member(doc, key::usb, what);
+  want_object(usb, "/healthz \"usb\"");
+  h.usb.state = text(usb, key::state, what);
+  if (usb.contains(key::devices)) h.usb.devices = count(usb, key::devices, what);
+  if (usb.contains(key::error)) h.usb.error = text(usb, key::error, what);
+  return h;
+}
+
+}  // namespace rsd::model
