@@ -287,6 +287,9 @@ class Bench:
 
     # ---- sections ----------------------------------------------------------------------
     def section(self, name, fn):
+        only = [x for x in self.args.only.split(",") if x] if getattr(self.args, "only", "") else []
+        if only and name not in only and not (name == "discovery" and "removal" in only):
+            return
         log(f"{name} ...")
         t0 = time.monotonic()
         try:
@@ -917,6 +920,7 @@ def main():
     g.add_argument("--smoke", action="store_true", help="a tiny run for CI: the harness works, numbers mean nothing")
     ap.add_argument("--build", default=os.environ.get("RSD_BUILD_DIR") or os.path.join(ROOT, "build"))
     ap.add_argument("--out", default=os.path.join(HERE, "results"))
+    ap.add_argument("--only", default="", help="comma-separated sections to run (default: all): " + ", ".join(SECTIONS))
     args = ap.parse_args()
     bench = Bench(args)
     try:
