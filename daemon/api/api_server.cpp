@@ -430,8 +430,9 @@ class TableFeed final : public EventFeed {
       std::uint64_t n = 0;
       for (const auto& e : got.events) {
         cursor = e.generation;
-        if (!filter.matches(e.device)) continue;
-        out += sse_message(to_string(e.type), e.generation, dump(e.device));
+        // Only a filtered stream reads the device; the others send the logged bytes.
+        if (!filter.empty() && !filter.matches(e.device())) continue;
+        out += sse_message(to_string(e.type), e.generation, *e.document);
         ++n;
       }
       sent_ += n;

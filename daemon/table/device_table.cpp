@@ -15,8 +15,13 @@ const char* to_string(EventType type) {
   return "unknown";
 }
 
-DeviceTable::DeviceTable(std::size_t log_capacity, std::uint64_t first_generation)
-    : log_capacity_(std::max<std::size_t>(1, log_capacity)), generation_(first_generation) {}
+DeviceTable::DeviceTable(std::size_t log_capacity, std::uint64_t first_generation, std::size_t log_max_bytes)
+    : log_capacity_(std::max<std::size_t>(1, log_capacity)), log_max_bytes_(log_max_bytes),
+      generation_(first_generation) {}
+
+nlohmann::json DeviceEvent::device() const {
+  return document ? nlohmann::json::parse(*document) : nlohmann::json();
+}
 
 namespace {
 // Two documents describe the same state when they differ only in the timestamps.
@@ -164,7 +169,7 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
 std::optional<DeviceEvent> DeviceTable::event_for(const std::vector<DeviceEvent>& events,
                                                   const std::string& entry_id) const {
   for (const auto& e : events)
-    if (e.device.value(model::key::id, std::string()) == entry_id) return e;
+    if (e.id == entry_id) return e;
   return std::nullopt;
 }
 
@@ -270,9 +275,16 @@ std::optional<DeviceEvent> DeviceTable::note_described(const std::string& id) {
 }
 
 DeviceEvent DeviceTable::record(EventType type, const nlohmann::json& device) {
-  DeviceEvent event{++generation_, type, device};
+  DeviceEvent event{++generation_, type, device.value(model::key::id, std::string()),
+                    std::make_shared<const std::string>(
+                        device.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace))};
   log_.push_back(event);
-  while (log_.size() > log_capacity_) log_.pop_front();
+  log_bytes_ += event.document->size();
+  // The newest event always stays, whatever its size: a resume from just before it works.
+  while (log_.size() > 1 && (log_.size() > log_capacity_ || log_bytes_ > log_max_bytes_)) {
+    log_bytes_ -= log_.front().document->size();
+    log_.pop_front();
+  }
   return event;
 }
 

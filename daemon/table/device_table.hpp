@@ -11,6 +11,7 @@
 #include <deque>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -26,7 +27,13 @@ const char* to_string(EventType type);
 struct DeviceEvent {
   std::uint64_t generation = 0;  // strictly increasing, one per event; the SSE id
   EventType type = EventType::added;
-  nlohmann::json device;  // the device as it is after the event (before it, for removed)
+  std::string id;  // the entry's
+  // The device as it is after the event (before it, for removed), serialized once
+  // and shared: the change log keeps thousands of these (as JSON objects they took
+  // 3 KB each, measured; as text about 500 bytes) and every SSE client sends these
+  // very bytes. Invalid UTF-8 from a peer is replaced, as everywhere in the API.
+  std::shared_ptr<const std::string> document;
+  nlohmann::json device() const;  // parsed again: for filters and tests
 };
 
 // What events_since() found in the change log.
@@ -68,7 +75,11 @@ class DeviceTable {
   // `first_generation` lets a restarted daemon continue above its predecessor's ids
   // (main seeds it from the clock), so a client resuming with an old id is told to
   // re-list instead of being handed unrelated events.
-  explicit DeviceTable(std::size_t log_capacity = 4096, std::uint64_t first_generation = 0);
+  // The change log keeps the last `log_capacity` events, and no more than
+  // `log_max_bytes` of their documents: a burst of changes cannot grow the daemon
+  // for good (a client that falls further behind re-lists).
+  explicit DeviceTable(std::size_t log_capacity = 4096, std::uint64_t first_generation = 0,
+                       std::size_t log_max_bytes = 512 * 1024);
 
   // Adds the device (sighting) `id` or updates it. `doc` is the whole device as its
   // source sees it now (an object; "id" is set here). Returns the event it caused
@@ -121,6 +132,8 @@ class DeviceTable {
   std::map<std::string, nlohmann::json> devices_;   // the entries, what everyone sees
   std::deque<DeviceEvent> log_;
   std::size_t log_capacity_;
+  std::size_t log_max_bytes_;
+  std::size_t log_bytes_ = 0;
   std::uint64_t generation_ = 0;
 };
 

@@ -43,8 +43,8 @@ TEST(DeviceTable, ChangedFieldEmitsChangedAndKeepsFirstSeen) {
   auto ev = t.upsert("a", recovering, "T2");
   ASSERT_TRUE(ev);
   EXPECT_EQ(ev->type, EventType::changed);
-  EXPECT_EQ(ev->device["recovery"], true);
-  EXPECT_EQ(ev->device["first-seen"], "T1");
+  EXPECT_EQ(ev->device()["recovery"], true);
+  EXPECT_EQ(ev->device()["first-seen"], "T1");
   EXPECT_EQ(t.size(), 1u);
 }
 
@@ -55,7 +55,7 @@ TEST(DeviceTable, RemoveKnownAndUnknown) {
   auto ev = t.remove("a");
   ASSERT_TRUE(ev);
   EXPECT_EQ(ev->type, EventType::removed);
-  EXPECT_EQ(ev->device["id"], "a");
+  EXPECT_EQ(ev->device()["id"], "a");
   EXPECT_EQ(t.find("a"), nullptr);
   EXPECT_EQ(t.generation(), 2u);
 }
@@ -128,9 +128,27 @@ TEST(DeviceTable, DescribedIsAnEventThatChangesNothing) {
   EXPECT_EQ(ev->type, EventType::described);
   EXPECT_STREQ(rsd::to_string(ev->type), "described");
   EXPECT_EQ(ev->generation, 2u);
-  EXPECT_EQ(ev->device, before);
+  EXPECT_EQ(ev->device(), before);
   EXPECT_EQ(*t.find("a"), before);
   EXPECT_EQ(t.events_since(1).events.size(), 1u);
   EXPECT_FALSE(t.note_described("nobody"));
   EXPECT_EQ(t.generation(), 2u);
+}
+
+TEST(DeviceTable, TheLogIsBoundedInBytesTooAndKeepsTheNewest) {
+  // 4 KiB of documents at most: a burst of large documents cannot grow the daemon.
+  DeviceTable t(4096, 0, 4096);
+  const json big = {{"name", std::string(1000, 'x')}};
+  for (int i = 0; i < 20; ++i) t.upsert("d" + std::to_string(i), big, "T");
+  EXPECT_TRUE(t.events_since(0).gap);
+  const auto kept = t.events_since(t.generation() - 3);
+  EXPECT_FALSE(kept.gap);
+  ASSERT_EQ(kept.events.size(), 3u);
+  EXPECT_EQ(kept.events.back().id, "d19");
+  EXPECT_EQ(kept.events.back().device()["name"], big["name"]);
+  EXPECT_TRUE(t.events_since(t.generation() - 5).gap);  // about four fit
+  // One document larger than the whole bound is still kept, alone.
+  t.upsert("huge", {{"name", std::string(10000, 'y')}}, "T");
+  EXPECT_FALSE(t.events_since(t.generation() - 1).gap);
+  EXPECT_TRUE(t.events_since(t.generation() - 2).gap);
 }

@@ -43,7 +43,7 @@ TEST(TableMerge, SameSerialMergesUnderTheDdsId) {
   auto ev = t.upsert("dds-7-x", dds("123"), "T2");
   ASSERT_TRUE(ev);
   EXPECT_EQ(ev->type, EventType::added);
-  EXPECT_EQ(ev->device["id"], "dds-7-x");
+  EXPECT_EQ(ev->device()["id"], "dds-7-x");
   EXPECT_EQ(ids(t), std::vector<std::string>{"dds-7-x"});
   const json& d = *t.find("dds-7-x");
   EXPECT_EQ(d["source"], "dds");
@@ -60,8 +60,8 @@ TEST(TableMerge, SameSerialMergesUnderTheDdsId) {
   auto log = t.events_since(0).events;
   ASSERT_EQ(log.size(), 3u);
   EXPECT_EQ(log[1].type, EventType::removed);
-  EXPECT_EQ(log[1].device["id"], "usb-123");
-  EXPECT_EQ(log[1].device["merged-into"], "dds-7-x");
+  EXPECT_EQ(log[1].device()["id"], "usb-123");
+  EXPECT_EQ(log[1].device()["merged-into"], "dds-7-x");
   EXPECT_EQ(log[2].type, EventType::added);
 }
 
@@ -71,8 +71,8 @@ TEST(TableMerge, UsbJoiningDdsIsAChange) {
   auto ev = t.upsert("usb-123", usb("123"), "T2");
   ASSERT_TRUE(ev);
   EXPECT_EQ(ev->type, EventType::changed);
-  EXPECT_EQ(ev->device["id"], "dds-7-x");
-  EXPECT_EQ(ev->device["sources"], json::array({"dds", "usb"}));
+  EXPECT_EQ(ev->device()["id"], "dds-7-x");
+  EXPECT_EQ(ev->device()["sources"], json::array({"dds", "usb"}));
   EXPECT_EQ(t.size(), 1u);
   EXPECT_EQ(t.generation(), 2u);
 }
@@ -84,8 +84,8 @@ TEST(TableMerge, UnplugLeavesDdsAndDdsLeavingLeavesUsb) {
   auto ev = t.remove("usb-123");
   ASSERT_TRUE(ev);
   EXPECT_EQ(ev->type, EventType::changed);
-  EXPECT_EQ(ev->device["sources"], json::array({"dds"}));
-  EXPECT_FALSE(ev->device.contains("usb"));
+  EXPECT_EQ(ev->device()["sources"], json::array({"dds"}));
+  EXPECT_FALSE(ev->device().contains("usb"));
   EXPECT_EQ(ids(t), std::vector<std::string>{"dds-7-x"});
   EXPECT_EQ(t.find("usb-123"), nullptr);
 
@@ -93,8 +93,8 @@ TEST(TableMerge, UnplugLeavesDdsAndDdsLeavingLeavesUsb) {
   ev = t.remove("dds-7-x");
   ASSERT_TRUE(ev);
   EXPECT_EQ(ev->type, EventType::removed);
-  EXPECT_EQ(ev->device["id"], "dds-7-x");
-  EXPECT_FALSE(ev->device.contains("merged-into"));
+  EXPECT_EQ(ev->device()["id"], "dds-7-x");
+  EXPECT_FALSE(ev->device().contains("merged-into"));
   EXPECT_EQ(ids(t), std::vector<std::string>{"usb-123"});
   const json& u = *t.find("usb-123");
   EXPECT_EQ(u["source"], "usb");
@@ -105,7 +105,7 @@ TEST(TableMerge, UnplugLeavesDdsAndDdsLeavingLeavesUsb) {
   ASSERT_EQ(last.size(), 2u);
   EXPECT_EQ(last[0].type, EventType::removed);
   EXPECT_EQ(last[1].type, EventType::added);
-  EXPECT_EQ(last[1].device["id"], "usb-123");
+  EXPECT_EQ(last[1].device()["id"], "usb-123");
 }
 
 TEST(TableMerge, DifferentOrMissingSerialsNeverMerge) {
