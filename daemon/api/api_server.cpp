@@ -544,7 +544,7 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
         where = "http " + opts.http_host + ":" + std::to_string(bound_port(http_fd));
       }
       bound_http_port = bound_port(http_fd);
-      host_check = HostCheck(opts.http_host, bound_to_any(http_fd), opts.allowed_hosts);
+      host_check = HostCheck({opts.http_host, bound_address(http_fd)}, bound_to_any(http_fd), opts.allowed_hosts);
       if (!bound_to_loopback(http_fd))
         log::warning("api: HTTP listens on " + where +
                      ", beyond this machine: every host that reaches it can read the camera inventory and its "

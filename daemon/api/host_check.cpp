@@ -42,11 +42,12 @@ bool is_address(const std::string& host) {
 
 }  // namespace
 
-HostCheck::HostCheck(std::string_view listen_host, bool wildcard, const std::vector<std::string>& extra)
+HostCheck::HostCheck(const std::vector<std::string>& ours, bool wildcard, const std::vector<std::string>& extra)
     : any_(false), any_address_(wildcard) {
   names_.insert("localhost");
   std::string h;
-  if (host_part(listen_host, h)) names_.insert(h);
+  for (const auto& name : ours)
+    if (host_part(name, h)) names_.insert(h);
   // On every address, the machine's own name is one of ours too.
   char name[256] = {};
   if (wildcard && gethostname(name, sizeof name - 1) == 0 && name[0]) names_.insert(lower(name));

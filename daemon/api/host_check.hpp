@@ -14,10 +14,11 @@ namespace rsd::api {
 class HostCheck {
  public:
   HostCheck() = default;
-  // `listen_host`: the configured HTTP host (a name or an address); `wildcard`:
-  // bound to 0.0.0.0 or ::, so any address of the machine is ours. `extra`: the
-  // configured allowed-hosts; "*" among them turns the check off.
-  HostCheck(std::string_view listen_host, bool wildcard, const std::vector<std::string>& extra);
+  // `ours`: the names the listener is reached under (the configured HTTP host, the
+  // address actually bound, e.g. a socket systemd passed); `wildcard`: bound to
+  // 0.0.0.0 or ::, so any address of the machine is ours. `extra`: the configured
+  // allowed-hosts; "*" among them turns the check off.
+  HostCheck(const std::vector<std::string>& ours, bool wildcard, const std::vector<std::string>& extra);
 
   // `host`: the Host header's value, port included if given. No header at all
   // (HTTP/1.0) passes: browsers always send one.

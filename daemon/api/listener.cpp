@@ -122,6 +122,16 @@ int bound_port(int fd) {
   return 0;
 }
 
+std::string bound_address(int fd) {
+  sockaddr_storage ss{};
+  if (!local_name(fd, ss)) return {};
+  char buf[INET6_ADDRSTRLEN] = {};
+  if (ss.ss_family == AF_INET) inet_ntop(AF_INET, &reinterpret_cast<const sockaddr_in&>(ss).sin_addr, buf, sizeof buf);
+  else if (ss.ss_family == AF_INET6)
+    inet_ntop(AF_INET6, &reinterpret_cast<const sockaddr_in6&>(ss).sin6_addr, buf, sizeof buf);
+  return buf;
+}
+
 bool bound_to_any(int fd) {
   sockaddr_storage ss{};
   if (!local_name(fd, ss)) return false;

@@ -26,6 +26,8 @@ int listen_tcp(const std::string& host, int port);
 
 // The TCP port `fd` is bound to (0 if none).
 int bound_port(int fd);
+// The address `fd` is bound to, as text ("127.0.0.1", "::1"); "" if none.
+std::string bound_address(int fd);
 // Whether `fd` is bound to the wildcard address (0.0.0.0 or ::).
 bool bound_to_any(int fd);
 // Whether `fd` is bound to a loopback address (127/8, ::1).

@@ -66,7 +66,7 @@ TEST(RequestHead, TooLongLinesAndHeadsAreRefusedWithoutWaitingForTheEnd) {
 }
 
 TEST(HostCheck, LoopbackListenerAnswersItsAddressAndLocalhostOnly) {
-  const HostCheck check("127.0.0.1", false, {});
+  const HostCheck check({"127.0.0.1"}, false, {});
   for (const char* ok : {"localhost", "localhost:8035", "LocalHost", "localhost.", "127.0.0.1", "127.0.0.1:8035", ""})
     EXPECT_TRUE(check.allows(ok)) << ok;
   for (const char* bad : {"evil.example", "evil.example:8035", "127.0.0.1.evil.example", "127.0.0.2", "[::1]",
@@ -75,17 +75,20 @@ TEST(HostCheck, LoopbackListenerAnswersItsAddressAndLocalhostOnly) {
 }
 
 TEST(HostCheck, WildcardListenerAnswersAnyAddressButNoForeignName) {
-  const HostCheck check("0.0.0.0", true, {"cams.lab.example"});
+  const HostCheck check({"0.0.0.0"}, true, {"cams.lab.example"});
   for (const char* ok : {"192.0.2.7", "192.0.2.7:8035", "[fe80::1]:8035", "cams.lab.example", "CAMS.lab.example:1"})
     EXPECT_TRUE(check.allows(ok)) << ok;
   EXPECT_FALSE(check.allows("evil.example"));
 }
 
 TEST(HostCheck, StarTurnsItOffAndTheDefaultIsOff) {
-  EXPECT_TRUE(HostCheck("127.0.0.1", false, {"*"}).allows("evil.example"));
-  EXPECT_FALSE(HostCheck("127.0.0.1", false, {"*"}).enabled());
+  EXPECT_TRUE(HostCheck({"127.0.0.1"}, false, {"*"}).allows("evil.example"));
+  EXPECT_FALSE(HostCheck({"127.0.0.1"}, false, {"*"}).enabled());
   EXPECT_TRUE(HostCheck().allows("evil.example"));  // the Unix socket's
-  EXPECT_TRUE(HostCheck("::1", false, {}).allows("[::1]:8035"));
+  EXPECT_TRUE(HostCheck({"::1"}, false, {}).allows("[::1]:8035"));
+  // A socket systemd passed: configured for one address, bound to another.
+  const HostCheck passed({"127.0.0.1", "127.0.0.2"}, false, {});
+  EXPECT_TRUE(passed.allows("127.0.0.2:8035"));
 }
 
 TEST(ETag, IfNoneMatchListsAndWeakTags) {
