@@ -19,6 +19,8 @@ same run:
   removal       stopping -> `removed`, SIGKILL -> `removed` (lease), with the reader's floor
   scale         1,000 devices from 10 participants over 4 domains: time until listed, RSS
   fanout        100 SSE watchers: change -> last watcher
+  describe      Camera Discovery of a 5-stream realdds camera: first request -> description,
+                and a cached one, against pyrealdds' own device.wait_until_ready()
   idle          CPU-seconds per minute with N devices, with no client and with the watchers
 
 Writes OUT/latest.json and OUT/latest.md (OUT: bench/results). --quick does the same in
@@ -56,15 +58,15 @@ MODES = {
     # reps: repetitions, interleaved; scale: (devices, participants, domains)
     "full": dict(servers=4, per_server=25, http_reps=5, http_secs=5, rsd_load_tcp=True, cli_runs=200, cli_rounds=5,
                  lib_iters=5000, lib_reps=3, rs_reps=5, lat_reps=15, kill_reps=5, scale=(1000, 10, 4),
-                 watchers=100, changes=50, idle_secs=60, sse_connect_s=10),
+                 watchers=100, changes=50, idle_secs=60, sse_connect_s=10, describe_reps=10),
     "quick": dict(servers=4, per_server=25, http_reps=3, http_secs=1, rsd_load_tcp=False, cli_runs=60, cli_rounds=3,
                   lib_iters=500, lib_reps=2, rs_reps=1, lat_reps=5, kill_reps=2, scale=(1000, 10, 4),
-                  watchers=100, changes=16, idle_secs=6, sse_connect_s=4),
+                  watchers=100, changes=16, idle_secs=6, sse_connect_s=4, describe_reps=4),
     "smoke": dict(servers=2, per_server=5, http_reps=1, http_secs=1, rsd_load_tcp=False, cli_runs=5, cli_rounds=1,
                   lib_iters=50, lib_reps=1, rs_reps=1, lat_reps=1, kill_reps=1, scale=(20, 4, 2),
-                  watchers=10, changes=2, idle_secs=1, sse_connect_s=4),
+                  watchers=10, changes=2, idle_secs=1, sse_connect_s=4, describe_reps=1),
 }
-SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout",
+SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout", "describe",
             "idle"]
 
 
@@ -327,6 +329,7 @@ class Bench:
             self.section("fanout", self.bench_fanout)
             self.section("discovery", self.bench_discovery_removal)
             self.section("scale", self.bench_scale)
+            self.section("describe", self.bench_describe)
         finally:
             for fn in reversed(self.cleanup):
                 try:
@@ -769,6 +772,64 @@ http {{
         d.stop()
         return res
 
+    # -- Camera Discovery ----------------------------------------------------------------------
+    # Five streams, as a D455 serves them (color, depth, two IR, motion), several
+    # profiles and options each: what the daemon must collect in order.
+    DESCRIBE_SPEC = {
+        "streams": [
+            {"kind": "color", "name": "Color", "sensor": "RGB Camera",
+             "profiles": [[30, "rgb", 1280, 720], [30, "yuyv", 640, 480], [15, "rgb", 1920, 1080]], "default": 1,
+             "options": [["Backlight Compensation", 0, 0, 1, 1, 0, "desc"], ["Brightness", 0, -64, 64, 1, 0, "desc"]]},
+            {"kind": "depth", "name": "Depth", "sensor": "Stereo Module",
+             "profiles": [[30, "z16", 848, 480], [90, "z16", 424, 240]], "default": 0,
+             "options": [["Exposure", 8500, 1, 165000, 1, 8500, "desc"]]},
+            {"kind": "ir", "name": "Infrared 1", "sensor": "Stereo Module", "profiles": [[30, "y8", 848, 480]],
+             "default": 0, "options": []},
+            {"kind": "ir", "name": "Infrared 2", "sensor": "Stereo Module", "profiles": [[30, "y8", 848, 480]],
+             "default": 0, "options": []},
+            {"kind": "motion", "name": "Motion", "sensor": "Motion Module", "profiles": [[200], [400]], "default": 0,
+             "options": []},
+        ],
+        "device-options": [["Laser Power", 150, 0, 360, 30, 150, "desc"]],
+        "extrinsics": [["Depth", "Color", [1, 0, 0, 0, 1, 0, 0, 0, 1], [0.015, 0.0, 0.0]]],
+    }
+
+    def bench_describe(self):
+        domain = self.locks.take()
+        d = self.start_daemon([domain], "describe")
+        server = conftest.RealddsServer(domain, [], name="bench-describe")
+        self.cleanup.append(server.kill)
+        anchor = Lines([self.python, os.path.join(HERE, "realdds_describe_anchor.py"), "--domain", str(domain)])
+        self.cleanup.append(lambda: (anchor.proc.kill(), anchor.proc.wait()))
+        anchor.wait(lambda x: x.get("ready"), 30, "the pyrealdds anchor")
+        first, cached, ref, streams = [], [], [], None
+        for run in range(self.p["describe_reps"]):
+            # A camera of its own each round: the first request is never a cached answer.
+            info = device_info(run, prefix="5")
+            server.command(cmd="add", info=info, spec=self.DESCRIBE_SPEC)
+            cam_id = "dds-%d-%s" % (domain, info["topic-root"].replace("/", "."))
+            wait_until(lambda: unix_get(d.socket, f"/v1/devices/{cam_id}")[0] == 200, 15, "the camera listed")
+            t0 = time.monotonic()
+            status, body = unix_get(d.socket, f"/v1/devices/{cam_id}/description", timeout=40)
+            first.append((time.monotonic() - t0) * 1000)
+            if status != 200:
+                raise BenchError(f"description: {status} {body[:300]!r}")
+            streams = len(json.loads(body)["streams"])
+            t0 = time.monotonic()
+            unix_get(d.socket, f"/v1/devices/{cam_id}/description")
+            cached.append((time.monotonic() - t0) * 1000)
+            # The anchor: librealsense's realdds client getting the same set from the same server.
+            anchor.proc.stdin.write(json.dumps(info) + "\n")
+            anchor.proc.stdin.flush()
+            got = anchor.wait(lambda x: x.get("topic-root") == info["topic-root"], 40, "the anchor's device ready")
+            if "error" in got:
+                raise BenchError(f"anchor: {got['error']}")
+            ref.append(got["ms"])
+        d.stop()
+        return {"streams": streams, "first_request_ms": stats(first), "cached_request_ms": stats(cached),
+                "pyrealdds_wait_until_ready_ms": stats(ref),
+                "ratio_first_to_pyrealdds": ratio(stats(first)["median"], stats(ref)["median"])}
+
     # ---- the table --------------------------------------------------------------------------
     def table(self):
         R = self.results
@@ -867,6 +928,18 @@ http {{
                                           f"{f(sc['list_bytes_per_device'], 0)} B/device (JSON)",
                          "anchor": "", "ratio": "",
                          "target": f"≤ 5 s, RSS ≤ 64 MB: {verdict(t <= 5 and rss <= 64)}"})
+        ds = R.get("describe", {})
+        if "first_request_ms" in ds:
+            rows.append({"comparison": f"Camera Discovery: {ds['streams']}-stream camera, GET .../description",
+                         "rs_discoveryd": f"first request {f(med(ds['first_request_ms']), 1)} ms"
+                                          f"{spread(ds['first_request_ms'], 1)}, cached "
+                                          f"{f(med(ds['cached_request_ms']), 2)} ms",
+                         "anchor": f"pyrealdds device.wait_until_ready() "
+                                   f"{f(med(ds['pyrealdds_wait_until_ready_ms']), 1)} ms"
+                                   f"{spread(ds['pyrealdds_wait_until_ready_ms'], 1)}",
+                         "ratio": "–" if ds['ratio_first_to_pyrealdds'] is None
+                                  else f"{ds['ratio_first_to_pyrealdds']:.3g}×",
+                         "target": "≤ 30 s (the use case's limit): " + verdict(med(ds['first_request_ms']) <= 30000)})
         fo = R.get("fanout", {})
         if "broadcast_to_last_watcher" in fo:
             last, spr = fo["broadcast_to_last_watcher"], fo["first_to_last_watcher"]
