@@ -3,6 +3,7 @@
 Host headers, event streams nobody reads. Each asserts what a user would see: the
 API keeps answering everyone else, and the abuser gets a clear status."""
 import json
+import os
 import resource
 import socket
 import statistics
@@ -12,6 +13,9 @@ import pytest
 
 from api_util import SSEStream, get_json, metric, parse_metrics, raw, request, wait_for
 from test_api_harness import dev, harness  # noqa: F401  (the fixture)
+
+
+SANITIZED = bool(os.environ.get("RSD_SANITIZER_FLAGS"))
 
 
 def rss_kb(pid):
@@ -198,8 +202,10 @@ def test_an_event_stream_nobody_reads_is_dropped_and_the_others_keep_theirs(harn
             if e["event"] in ("added", "changed"):
                 seen.append(int(e["id"]))
         assert seen == generations
-        # The stuck client's backlog did not stay in the daemon.
-        assert rss_kb(h.proc.pid) < rss_before + 16 * 1024
+        # The stuck client's backlog did not stay in the daemon. (Under ASan, RSS says
+        # nothing: its quarantine keeps freed memory on purpose.)
+        if not SANITIZED:
+            assert rss_kb(h.proc.pid) < rss_before + 16 * 1024
     finally:
         reader.close()
     stuck.close()
