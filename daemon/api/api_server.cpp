@@ -7,6 +7,7 @@
 #include "log/log.hpp"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cerrno>
 #include <cstring>
@@ -77,16 +78,9 @@ struct ApiServer::Impl {
   struct stat socket_stat{};
   int bound_http_port = 0;
 
-  // /v1/devices bodies of the table's current generation, by query: a busy
-  // poller costs a lookup, not a snapshot and a JSON dump.
-  struct CachedList {
-    std::uint64_t generation = 0;
-    bool complete = false;
-    std::string query;
-    std::shared_ptr<const std::string> body;
-  };
-  std::mutex list_cache_mutex;
-  std::vector<CachedList> list_cache;
+  // Names this server in the threads' list caches (see device_list).
+  const std::uint64_t instance = next_instance++;
+  static inline std::atomic<std::uint64_t> next_instance{1};
 
   std::mutex lifecycle;
   std::atomic<bool> stopping{false};
@@ -95,8 +89,8 @@ struct ApiServer::Impl {
   std::atomic<std::uint64_t> events_sent{0};
   std::atomic<std::size_t> streams_open{0};
   std::atomic<std::uint64_t> streams_rejected{0};
-  std::mutex requests_mutex;
-  std::map<int, std::uint64_t> requests_by_status;
+  // Answers by status (100-599), counted without a lock: every request touches it.
+  std::array<std::atomic<std::uint64_t>, 600> requests_by_status{};
 
   Impl(SharedTable& t, const StatusSource& s, std::string v) : table(t), status(s), version(std::move(v)) {}
 
@@ -213,26 +207,41 @@ void ApiServer::Impl::configure(RequestServer& svr, bool http) {
     send_error(res, 500, "internal error");
   });
   svr.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
-    {
-      std::lock_guard lock(requests_mutex);
-      ++requests_by_status[res.status];
-    }
+    if (res.status >= 100 && res.status < 600) ++requests_by_status[static_cast<std::size_t>(res.status)];
     if (log::enabled(log::Level::debug))
       log::debug("api: " + req.method + " " + req.target + " -> " + std::to_string(res.status));
   });
 }
 
+namespace {
+
+// /v1/devices bodies of the table's current generation, by query, kept by each
+// thread that serves requests (the event loops): a busy poller costs a lookup, not
+// a snapshot and a JSON dump, and the loops never wait on each other's lock for it
+// (a shared cache's mutex showed as task switches in the profile).
+struct ListCache {
+  std::uint64_t server = 0;  // ApiServer::Impl::instance
+  std::uint64_t generation = 0;
+  struct Entry {
+    bool complete = false;
+    std::string query;
+    std::shared_ptr<const std::string> body;
+  };
+  std::vector<Entry> entries;  // a handful of distinct filters is all pollers use
+};
+thread_local ListCache tls_list_cache;
+
+}  // namespace
+
 std::shared_ptr<const std::string> ApiServer::Impl::device_list(const DeviceFilter& filter, const std::string& query,
                                                                 bool done, std::uint64_t& generation) {
-  const auto now = table.generation();
-  {
-    std::lock_guard lock(list_cache_mutex);
-    for (const auto& c : list_cache)
-      if (c.generation == now && c.complete == done && c.query == query) {
-        generation = c.generation;
-        return c.body;
+  auto& cache = tls_list_cache;
+  if (cache.server == instance && cache.generation == table.generation())
+    for (const auto& e : cache.entries)
+      if (e.complete == done && e.query == query) {
+        generation = cache.generation;
+        return e.body;
       }
-  }
   auto snap = table.snapshot();
   nlohmann::json devices = nlohmann::json::array();
   for (auto& d : snap.devices)
@@ -241,12 +250,8 @@ std::shared_ptr<const std::string> ApiServer::Impl::device_list(const DeviceFilt
   // without missing or repeating an event in between.
   nlohmann::json doc = {{"generation", snap.generation}, {"complete", done}, {"devices", std::move(devices)}};
   auto body = std::make_shared<const std::string>(dump(doc) + "\n");
-  {
-    std::lock_guard lock(list_cache_mutex);
-    // Keep one generation; a handful of distinct filters of it is all pollers use.
-    if (!list_cache.empty() && list_cache.front().generation != snap.generation) list_cache.clear();
-    if (list_cache.size() < 16) list_cache.push_back({snap.generation, done, query, body});
-  }
+  if (cache.server != instance || cache.generation != snap.generation) cache = {instance, snap.generation, {}};
+  if (cache.entries.size() < 16) cache.entries.push_back({done, query, body});
   generation = snap.generation;
   return body;
 }
@@ -258,7 +263,7 @@ void ApiServer::Impl::handle_devices(const httplib::Request& req, httplib::Respo
   for (const auto& [k, v] : req.params) query += k + "=" + v + "&";
   // Completeness first, then the snapshot: "complete": true then promises that the
   // list was taken after the first discovery ended, never just before.
-  const bool done = complete(domains());
+  const bool done = status.discovery_complete();
   std::uint64_t generation = 0;
   auto body = device_list(filter, query, done, generation);
   // The table's generation names the body: a client that has it already gets a
@@ -290,7 +295,7 @@ std::vector<nlohmann::json> ApiServer::Impl::lookup(const std::string& name) con
 void ApiServer::Impl::handle_device(const httplib::Request& req, httplib::Response& res) {
   if (auto err = check_params("/v1/devices/{id}", req.params, {})) return send_error(res, 400, *err);
   const std::string id = req.matches.size() > 1 ? req.matches[1].str() : "";
-  const bool done = complete(domains());
+  const bool done = status.discovery_complete();
   auto hits = lookup(id);
   if (hits.size() == 1) return send_json(res, 200, hits.front());
   if (hits.size() > 1) {
@@ -354,7 +359,7 @@ void ApiServer::Impl::handle_health(const httplib::Request& req, httplib::Respon
   if (auto err = check_params("/healthz", req.params, {})) return send_error(res, 400, *err);
   model::Health health;
   health.version = version;
-  health.complete = complete(domains());
+  health.complete = status.discovery_complete();
   {
     const auto snap = table.snapshot();
     health.devices = snap.devices.size();
@@ -389,10 +394,8 @@ void ApiServer::Impl::handle_metrics(const httplib::Request& req, httplib::Respo
     in.timeouts = ls.timed_out;
     in.rejected = ls.rejected;
   }
-  {
-    std::lock_guard lock(requests_mutex);
-    in.requests_by_status = requests_by_status;
-  }
+  for (std::size_t code = 100; code < requests_by_status.size(); ++code)
+    if (const auto n = requests_by_status[code].load()) in.requests_by_status[static_cast<int>(code)] = n;
   res.status = 200;
   res.set_content(render_metrics(in), "text/plain; version=0.0.4; charset=utf-8");
 }
@@ -602,10 +605,6 @@ void ApiServer::Impl::stop_locked() {
     if (lstat(socket_path.c_str(), &now) == 0 && now.st_ino == socket_stat.st_ino && now.st_dev == socket_stat.st_dev)
       unlink(socket_path.c_str());
     socket_path.clear();
-  }
-  {
-    std::lock_guard cache_lock(list_cache_mutex);
-    list_cache.clear();
   }
   bound_http_port = 0;
   started = false;

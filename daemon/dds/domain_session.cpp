@@ -396,9 +396,18 @@ DomainStatus DomainSession::status() const {
   for (const auto& [reason, n] : fetcher_.rejected()) s.rejected[reason] += n;
   s.rebuilds = rebuilds_;
   s.refreshes = refreshes_;
-  s.complete = state_ == DomainState::failed ||
-               (first_reader_at_ && Clock::now() - *first_reader_at_ >= options_.initial_grace);
+  s.complete = complete_locked();
   return s;
+}
+
+bool DomainSession::discovery_complete() const {
+  std::lock_guard lock(mutex_);
+  return complete_locked();
+}
+
+bool DomainSession::complete_locked() const {
+  return state_ == DomainState::failed ||
+         (first_reader_at_ && Clock::now() - *first_reader_at_ >= options_.initial_grace);
 }
 
 }  // namespace rsd::dds

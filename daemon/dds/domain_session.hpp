@@ -85,8 +85,10 @@ class DomainSession {
   bool reading() const;  // the device-info reader exists (initial discovery done)
   int domain() const { return options_.domain; }
   DomainStatus status() const;
+  bool discovery_complete() const;  // status().complete, without the rest
 
  private:
+  bool complete_locked() const;
   static void on_data_available(dds_entity_t reader, void* arg);
   static void on_participant_data(dds_entity_t reader, void* arg);
   static void on_subscription_matched(dds_entity_t reader, dds_subscription_matched_status_t status,

@@ -25,6 +25,7 @@ void DomainSet::start(const std::vector<int>& domains) {
     session->start();  // throws: the caller gives up
     std::lock_guard lock(mutex_);
     sessions_.emplace(d, std::move(session));
+    ++set_version_;
   }
 }
 
@@ -44,6 +45,7 @@ DomainSet::Change DomainSet::apply(const std::vector<int>& domains) {
       change.left.push_back(it->first);
       leaving.push_back(std::move(it->second));
       it = sessions_.erase(it);
+      ++set_version_;
     }
   }
   for (auto& s : leaving) {
@@ -64,6 +66,7 @@ DomainSet::Change DomainSet::apply(const std::vector<int>& domains) {
     change.joined.push_back(d);
     std::lock_guard lock(mutex_);
     sessions_.emplace(d, std::move(session));
+    ++set_version_;
   }
   return change;
 }
@@ -103,6 +106,16 @@ std::vector<DomainStatus> DomainSet::status() const {
   std::vector<DomainStatus> out;
   for (const auto& [d, s] : sessions_) out.push_back(s->status());
   return out;
+}
+
+bool DomainSet::discovery_complete() const {
+  const auto version = set_version_.load();
+  if (complete_version_.load() == version) return true;
+  std::lock_guard lock(mutex_);
+  for (const auto& [d, s] : sessions_)
+    if (!s->discovery_complete()) return false;
+  complete_version_ = version;  // a set changed meanwhile has a newer version: asked again
+  return true;
 }
 
 DeviceDescription DomainSet::describe(const std::string& id, std::chrono::milliseconds wait) const {

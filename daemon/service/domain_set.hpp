@@ -8,6 +8,7 @@
 #include "table/shared_table.hpp"
 
 #include <chrono>
+#include <atomic>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -52,6 +53,9 @@ class DomainSet {
 
   // Any thread (API workers).
   std::vector<DomainStatus> status() const;
+  // Every domain's first discovery is over. Lock-free once it is (until the set of
+  // domains changes): the API asks it for every device list.
+  bool discovery_complete() const;
 
   // Camera Discovery for the device `id` (an entry of the table, or a sighting
   // merged into one): its description from its realdds server, waiting up to
@@ -69,6 +73,10 @@ class DomainSet {
   // Shared: an API worker describing a device holds its session while it waits,
   // so a reload that leaves the domain meanwhile cannot pull it from under it.
   std::map<int, std::shared_ptr<dds::DomainSession>> sessions_;
+  // Completeness only goes from false to true for a given set of domains: the set's
+  // version, bumped with every change to it, and the version last seen complete.
+  std::atomic<std::uint64_t> set_version_{1};
+  mutable std::atomic<std::uint64_t> complete_version_{0};
 };
 
 }  // namespace rsd::service

@@ -16,6 +16,7 @@ class SourcesStatus final : public StatusSource {
       : domains_(domains), usb_(usb), describe_wait_(describe_wait) {}
 
   std::vector<DomainStatus> domains() const override { return domains_.status(); }
+  bool discovery_complete() const override { return domains_.discovery_complete(); }
   std::optional<UsbStatus> usb() const override { return usb_.status(); }
   DeviceDescription describe(const std::string& id) const override { return domains_.describe(id, describe_wait_); }
 

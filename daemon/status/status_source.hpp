@@ -20,6 +20,14 @@ class StatusSource {
 
   // Every joined domain, in no particular order.
   virtual std::vector<DomainStatus> domains() const = 0;
+  // Whether every domain's first discovery is over (DomainStatus::complete of all).
+  // Asked for every device list, so a source may answer it cheaper than domains().
+  virtual bool discovery_complete() const {
+    const auto all = domains();
+    for (const auto& d : all)
+      if (!d.complete) return false;
+    return true;
+  }
   // Nothing when USB is turned off (--no-usb, "usb": false), now.
   virtual std::optional<UsbStatus> usb() const = 0;
   // Camera Discovery of the device `id` (an entry of the table); blocks up to the

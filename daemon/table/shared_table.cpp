@@ -20,6 +20,7 @@ std::optional<DeviceEvent> SharedTable::upsert(const std::string& id, nlohmann::
   {
     std::lock_guard lock(mutex_);
     event = table_.upsert(id, std::move(doc), now_iso8601());
+    generation_ = table_.generation();
   }
   if (event) announce();
   return event;
@@ -30,6 +31,7 @@ std::optional<DeviceEvent> SharedTable::remove(const std::string& id) {
   {
     std::lock_guard lock(mutex_);
     event = table_.remove(id);
+    generation_ = table_.generation();
   }
   if (event) announce();
   return event;
@@ -40,6 +42,7 @@ std::optional<DeviceEvent> SharedTable::note_described(const std::string& id) {
   {
     std::lock_guard lock(mutex_);
     event = table_.note_described(id);
+    generation_ = table_.generation();
   }
   if (event) announce();
   return event;
@@ -51,6 +54,7 @@ std::vector<DeviceEvent> SharedTable::remove_if(
   {
     std::lock_guard lock(mutex_);
     events = table_.remove_if(pred);
+    generation_ = table_.generation();
   }
   if (!events.empty()) announce();
   return events;
@@ -67,10 +71,7 @@ std::optional<nlohmann::json> SharedTable::find(const std::string& id) const {
   return std::nullopt;
 }
 
-std::uint64_t SharedTable::generation() const {
-  std::lock_guard lock(mutex_);
-  return table_.generation();
-}
+std::uint64_t SharedTable::generation() const { return generation_.load(); }
 
 EventsSince SharedTable::wait_events(std::uint64_t generation,
                                      std::chrono::milliseconds timeout) const {

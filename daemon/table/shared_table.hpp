@@ -5,6 +5,7 @@
 
 #include "table/device_table.hpp"
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <functional>
@@ -20,7 +21,7 @@ struct TableSnapshot {
 class SharedTable {
  public:
   explicit SharedTable(std::size_t log_capacity = 4096, std::uint64_t first_generation = 0)
-      : table_(log_capacity, first_generation) {}
+      : table_(log_capacity, first_generation), generation_(first_generation) {}
 
   std::optional<DeviceEvent> upsert(const std::string& id, nlohmann::json doc);
   std::optional<DeviceEvent> remove(const std::string& id);
@@ -55,6 +56,8 @@ class SharedTable {
   std::function<void()> hook_;
   void announce();  // wakes waiters and runs the hook
   DeviceTable table_;
+  // table_.generation(), readable without the lock: the API asks it for every request.
+  std::atomic<std::uint64_t> generation_;
   bool closed_ = false;
 };
 
