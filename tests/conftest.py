@@ -243,6 +243,21 @@ class RealddsServer:
         self.proc.wait()
 
 
+# Under AddressSanitizer freed memory sits in its quarantine (256 MB) and every
+# allocation has shadow: RSS says nothing about the daemon there. Tests that bound
+# RSS do so on the plain build only.
+SANITIZED = bool(os.environ.get("RSD_SANITIZER_FLAGS"))
+
+
+def rss_kb(pid):
+    """The resident set of process `pid`, in KiB."""
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    raise AssertionError("no VmRSS")
+
+
 def device_info(n, serial=None, **extra):
     """A device-info as a D455 camera sends it."""
     serial = serial or f"1236222707{n:02d}"

@@ -3,7 +3,6 @@
 Host headers, event streams nobody reads. Each asserts what a user would see: the
 API keeps answering everyone else, and the abuser gets a clear status."""
 import json
-import os
 import resource
 import socket
 import statistics
@@ -12,18 +11,8 @@ import time
 import pytest
 
 from api_util import SSEStream, get_json, metric, parse_metrics, raw, request, wait_for
+from conftest import SANITIZED, rss_kb
 from test_api_harness import dev, harness  # noqa: F401  (the fixture)
-
-
-SANITIZED = bool(os.environ.get("RSD_SANITIZER_FLAGS"))
-
-
-def rss_kb(pid):
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1])
-    raise AssertionError("no VmRSS")
 
 
 def open_socket(target):

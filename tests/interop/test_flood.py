@@ -6,25 +6,13 @@ flood is measured by bench/, not here."""
 import os
 import subprocess
 
-from conftest import device_info, wait_for
+from conftest import SANITIZED, device_info, rss_kb, wait_for
 from test_realdds import dds_id
 
 RAW_WRITER = os.environ["RSD_RAW_WRITER"]
 RSS_LIMIT_KB = 256 * 1024
-# Under AddressSanitizer freed memory sits in its quarantine (256 MB) and every
-# allocation has shadow: RSS says nothing about the daemon there. The flood still
-# runs (the sanitizers watch its threads); only the RSS bounds are the plain build's.
-SANITIZED = bool(os.environ.get("RSD_SANITIZER_FLAGS"))
-
-
-def rss_kb(pid):
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1])
-    raise AssertionError("no VmRSS")
-
-
+# The flood runs under the sanitizers too (they watch its threads); only the RSS
+# bounds are the plain build's (conftest.SANITIZED).
 def flood(domain, count, rate, daemon_pid):
     """Runs a rogue writer to its end; returns the daemon's peak RSS meanwhile."""
     proc = subprocess.Popen([RAW_WRITER, str(domain), "--flood", str(count), str(rate)], stdout=subprocess.PIPE,

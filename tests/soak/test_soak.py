@@ -19,7 +19,7 @@ import pytest
 _TESTS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path[:0] = [os.path.join(_TESTS, "integration"), os.path.join(_TESTS, "usb")]
 
-from conftest import Daemon, DomainLocks, RealddsServer, device_info, free_port, wait_for
+from conftest import SANITIZED, Daemon, DomainLocks, RealddsServer, device_info, free_port, rss_kb, wait_for
 from api_util import SSEStream, request  # noqa: E402
 from usbbed import UsbBed, in_umockdev  # noqa: E402
 
@@ -28,16 +28,6 @@ pytestmark = pytest.mark.skipif(not in_umockdev(), reason="run under umockdev-wr
 SECONDS = int(os.environ.get("RSD_SOAK_SECONDS", "120"))
 WATCHERS = 20
 CURVE_FILE = os.environ.get("RSD_SOAK_CURVE") or os.path.join(os.environ.get("RSD_BUILD_DIR", "/tmp"), "soak-rss.json")
-# ASan's quarantine and shadow memory make RSS say nothing about leaks there; LSan does.
-SANITIZED = bool(os.environ.get("RSD_SANITIZER_FLAGS"))
-
-
-def rss_kb(pid):
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1])
-    raise AssertionError("no VmRSS")
 
 
 class Watcher:
