@@ -1,4 +1,5 @@
 """The rsdiscovery package against the real daemon and real realdds servers."""
+import json
 import os
 import time
 
@@ -28,7 +29,8 @@ def test_list_get_wait_domains_health(daemon_factory, server_factory):
     d = daemon_factory()
     ep = "unix:" + d.socket
     t0 = time.monotonic()
-    assert rsdiscovery.wait_for(timeout=0.3, endpoint=ep) is None
+    with pytest.raises(TimeoutError, match="0 of 1"):
+        rsdiscovery.wait_for(timeout=0.3, endpoint=ep)
     assert time.monotonic() - t0 < 3
     server_factory([info(1), info(2)])
     dev = rsdiscovery.wait_for(lambda x: x.get("serial") == "9876543202", timeout=20, endpoint=ep)
@@ -104,3 +106,56 @@ def test_daemon_gone_errors(tmp_path):
     with pytest.raises(rsdiscovery.DaemonNotRunning):
         rsdiscovery.watch(endpoint=f"unix:{tmp_path}/none.sock")
     assert issubclass(rsdiscovery.VersionMismatch, rsdiscovery.RSDiscoveryError)
+
+
+def test_bad_arguments_are_value_errors_before_any_request(tmp_path):
+    """Nothing listens on this endpoint: each call fails on its arguments first."""
+    ep = "unix:" + str(tmp_path / "nobody.sock")
+    c = rsdiscovery.Client(ep)
+    for kwargs in ({"domain": 233}, {"domain": -1}, {"domain": "0"}, {"domain": True}, {"product_line": ""},
+                   {"product_line": 400}, {"source": "bluetooth"}):
+        with pytest.raises(ValueError):
+            c.list_devices(**kwargs)
+        with pytest.raises(ValueError):
+            c.wait_for(timeout=1, **kwargs)
+        with pytest.raises(ValueError):
+            c.watcher(**kwargs)
+    for call in (lambda: c.get_device(""), lambda: c.get_device(None),
+                 lambda: c.wait_for(timeout=-1), lambda: c.wait_for(count=0), lambda: c.wait_for(predicate=5),
+                 lambda: c.watcher(last_event_id=-3), lambda: rsdiscovery.Client(ep, timeout=0),
+                 lambda: rsdiscovery.Client(ep, complete_timeout=-1), lambda: rsdiscovery.Client("ftp://x")):
+        with pytest.raises(ValueError):
+            call()
+    # A filter in any case is fine (the daemon compares ignoring case); no daemon: not running.
+    with pytest.raises(rsdiscovery.DaemonNotRunning):
+        c.list_devices(source="USB", product_line="d400", domain=0)
+
+
+def test_python_m_rsdiscovery(daemon_factory, server_factory):
+    import subprocess
+    import sys
+    d = daemon_factory()
+    ep = "unix:" + d.socket
+
+    def cli(*args):
+        return subprocess.run([sys.executable, "-m", "rsdiscovery", "--endpoint", ep] + list(args),
+                              capture_output=True, text=True, timeout=60)
+
+    r = cli("wait", "--timeout", "0.3")
+    assert r.returncode == 1 and "0 of 1" in r.stderr, r
+    server_factory([info(1)])
+    r = cli("--json", "wait", "--timeout", "20", "--product-line", "d400")
+    assert r.returncode == 0, r
+    device = json.loads(r.stdout)
+    assert device["serial"] == "9876543201"
+    r = cli("list")
+    assert r.returncode == 0 and r.stdout.splitlines()[0].split() == ["ID", "NAME", "SERIAL", "SOURCE", "STATE"]
+    assert device["id"] in r.stdout
+    r = cli("--json", "get", "9876543201")
+    assert r.returncode == 0 and json.loads(r.stdout)["id"] == device["id"]
+    assert cli("get", "nope").returncode == 1
+    assert cli("list", "--domain", "300").returncode == 2
+    assert cli("list", "--source", "bluetooth").returncode == 2
+    r = subprocess.run([sys.executable, "-m", "rsdiscovery", "--endpoint", "unix:/nonexistent/x.sock", "health"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 3 and "/nonexistent/x.sock" in r.stderr

@@ -168,10 +168,27 @@ def _connect_error(ep: Endpoint, exc: OSError) -> RSDiscoveryError:
     return DaemonNotRunning(f"cannot reach rs-discoveryd at {where}: {exc}")
 
 
+def _check_filters(domain: Optional[int], product_line: Optional[str], source: Optional[str]) -> None:
+    """Bad filter arguments are the caller's mistake: a ValueError at once, never a
+    request the daemon would answer with 400 (or, worse, one that filters nothing)."""
+    if domain is not None and (isinstance(domain, bool) or not isinstance(domain, int) or not 0 <= domain <= 232):
+        raise ValueError(f"domain must be a DDS domain id, a whole number from 0 to 232, not {domain!r}")
+    if product_line is not None and (not isinstance(product_line, str) or not product_line.strip()):
+        raise ValueError(f"product_line must be a non-empty string such as 'D400', not {product_line!r}")
+    if source is not None and (not isinstance(source, str) or source.lower() not in ("dds", "usb")):
+        raise ValueError(f"source must be 'dds' or 'usb', not {source!r}")
+
+
+def _check_seconds(name: str, value: Any, allow_zero: bool = True) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0 or (value == 0 and not allow_zero):
+        raise ValueError(f"{name} must be a number of seconds {'>= 0' if allow_zero else '> 0'}, not {value!r}")
+
+
 def _query(domain: Optional[int], product_line: Optional[str], source: Optional[str]) -> str:
+    _check_filters(domain, product_line, source)
     q: List[Tuple[str, str]] = []
     if domain is not None:
-        q.append(("domain", str(int(domain))))
+        q.append(("domain", str(domain)))
     if product_line:
         q.append(("product-line", product_line))
     if source:
@@ -280,6 +297,12 @@ class Watcher:
                  reconnect: bool = True, idle_timeout: float = 60.0, max_reconnect_delay: float = 2.0,
                  domain: Optional[int] = None, product_line: Optional[str] = None,
                  source: Optional[str] = None, complete_timeout: float = 10.0) -> None:
+        _check_filters(domain, product_line, source)
+        _check_seconds("complete_timeout", complete_timeout)
+        _check_seconds("idle_timeout", idle_timeout, allow_zero=False)
+        if last_event_id is not None and (isinstance(last_event_id, bool) or not isinstance(last_event_id, int)
+                                          or last_event_id < 0):
+            raise ValueError(f"last_event_id must be an event id (a whole number >= 0), not {last_event_id!r}")
         self._client = client
         self._complete_timeout = complete_timeout
         # The generation of the last list: stream events up to it are in the view already.
@@ -539,6 +562,8 @@ class Client:
 
     def __init__(self, endpoint: "Endpoint | str | None" = None, timeout: float = 10.0,
                  complete_timeout: float = 5.0) -> None:
+        _check_seconds("timeout", timeout, allow_zero=False)
+        _check_seconds("complete_timeout", complete_timeout)
         self.endpoint = _endpoint(endpoint)
         self.timeout = timeout
         self.complete_timeout = complete_timeout
@@ -622,6 +647,8 @@ class Client:
         :class:`NotFound` when there is none, or when a serial or topic-root names several
         (their ids in ``NotFound.ids``). While the daemon's first discovery runs, an absent
         device is waited for (``complete_timeout``)."""
+        if not isinstance(device_id, str) or not device_id:
+            raise ValueError(f"device_id must be a device's id, serial or topic-root, not {device_id!r}")
         path = "/v1/devices/" + urllib.parse.quote(device_id, safe="")
         deadline = self._complete_deadline()
         while True:
@@ -683,11 +710,18 @@ class Client:
 
     def wait_for(self, predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0,
                  count: int = 1, domain: Optional[int] = None, product_line: Optional[str] = None,
-                 source: Optional[str] = None) -> Optional[Device]:
+                 source: Optional[str] = None) -> Device:
         """Waits until ``count`` devices matching the filters and ``predicate`` are present;
-        returns the first of them, or ``None`` when ``timeout`` seconds pass first. Like
-        :meth:`list_devices` it looks at the complete table (bounded by ``complete_timeout``
-        and by ``timeout``)."""
+        returns the first of them. Raises :class:`TimeoutError` (the built-in) when
+        ``timeout`` seconds pass first. Like :meth:`list_devices` it looks at the complete
+        table (bounded by ``complete_timeout`` and by ``timeout``)."""
+        if predicate is not None and not callable(predicate):
+            raise ValueError(f"predicate must be a function of a device, not {predicate!r}")
+        _check_seconds("timeout", timeout)
+        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+            raise ValueError(f"count must be a whole number >= 1, not {count!r}")
+        _check_filters(domain, product_line, source)
+
         def hit(devices: List[Device]) -> List[Device]:
             return [d for d in devices if predicate is None or predicate(d)]
 
@@ -704,7 +738,8 @@ class Client:
                     return now[0]
                 left = deadline - time.monotonic()
                 if left <= 0:
-                    return None
+                    raise TimeoutError(f"{len(now)} of {count} device(s) present after {timeout} s "
+                                       f"at rs-discoveryd ({self.endpoint})")
                 w.next(timeout=left)
 
 
@@ -745,8 +780,8 @@ def health(endpoint: "Endpoint | str | None" = None) -> Dict[str, Any]:
 
 def wait_for(predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0, count: int = 1,
              domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
-             endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0) -> Optional[Device]:
-    """Waits for a device (see :meth:`Client.wait_for`)."""
+             endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0) -> Device:
+    """Waits for a device; raises :class:`TimeoutError` (see :meth:`Client.wait_for`)."""
     return Client(endpoint, complete_timeout=complete_timeout).wait_for(predicate, timeout, count, domain,
                                                                         product_line, source)
 
