@@ -19,10 +19,10 @@ import rsdiscovery
 def pick(serial=None, timeout=10.0):
     """The camera to open: by serial, else the first one (waiting for it if needed)."""
     want = (lambda d: d.get("serial") == serial) if serial else None
-    device = rsdiscovery.wait_for(want, timeout=timeout)
-    if device is None:
+    try:
+        return rsdiscovery.wait_for(want, timeout=timeout)
+    except TimeoutError:
         sys.exit(f"no camera{' with serial ' + serial if serial else ''} within {timeout:g} s")
-    return device
 
 
 def open_with_pyrealsense2(device):
