@@ -31,7 +31,25 @@ class RequestServer : public httplib::Server {
   explicit RequestServer(int listener_fd) { svr_sock_ = listener_fd; }
   // false: the connection must close after what was written.
   bool serve(httplib::Stream& stream, bool close_connection, bool& connection_closed) {
-    return process_request(stream, close_connection, connection_closed, nullptr);
+    return serve_on(*this, stream, close_connection, connection_closed);
+  }
+
+ private:
+  // cpp-httplib 0.11 (bookworm) asks the stream for the two addresses; later ones
+  // (0.18, trixie) take them as arguments. A template, so that only the form this
+  // httplib has is compiled.
+  template <typename Server>
+  static bool serve_on(Server& server, httplib::Stream& stream, bool close_connection, bool& connection_closed) {
+    if constexpr (requires { server.process_request(stream, close_connection, connection_closed, nullptr); }) {
+      return server.process_request(stream, close_connection, connection_closed, nullptr);
+    } else {
+      std::string remote_ip, local_ip;
+      int remote_port = 0, local_port = 0;
+      stream.get_remote_ip_and_port(remote_ip, remote_port);
+      stream.get_local_ip_and_port(local_ip, local_port);
+      return server.process_request(stream, remote_ip, remote_port, local_ip, local_port, close_connection,
+                                    connection_closed, nullptr);
+    }
   }
 };
 
