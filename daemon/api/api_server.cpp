@@ -4,6 +4,7 @@
 #include "api/host_check.hpp"
 #include "api/listener.hpp"
 #include "api/server_loop.hpp"
+#include "rsd_model/description.hpp"
 #include "log/log.hpp"
 
 #include <algorithm>
@@ -328,7 +329,9 @@ void ApiServer::Impl::handle_description(const httplib::Request& req, httplib::R
   using Outcome = DeviceDescription::Outcome;
   switch (answer.outcome) {
     case Outcome::ok:
-      return send_json(res, 200, answer.description);
+      // Through the model: what is served is exactly what the clients' type reads
+      // (a drift would be a 500 here and a failing test, never a silent change).
+      return send_json(res, 200, model::to_json(model::description_from_json(answer.description)));
     case Outcome::not_found:
     case Outcome::not_network:
       return send_error(res, 404, answer.error);

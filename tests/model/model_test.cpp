@@ -1,6 +1,7 @@
 // The device model: what it reads it writes back unchanged, whatever a peer sent; the
 // lookup rule; the default-socket rule the daemon and the clients share.
 #include "rsd_model/device.hpp"
+#include "rsd_model/description.hpp"
 #include "rsd_model/status.hpp"
 #include "rsd_model/socket_path.hpp"
 
@@ -124,4 +125,42 @@ TEST(StatusModel, MalformedDocumentsAreNamed) {
   }
   EXPECT_THROW(rsd::model::health_from_json(nlohmann::json::parse(R"({"status": "ok", "version": 1})")),
                rsd::model::MalformedDocument);
+}
+
+// ---- the description document ----------------------------------------------------------
+
+TEST(DescriptionModel, RoundTripsWhatTheDaemonServes) {
+  const auto doc = nlohmann::json::parse(R"({
+    "streams": [
+      {"name": "Depth", "type": "depth", "sensor-name": "Stereo Module",
+       "profiles": [{"fps": 30, "format": "16UC1", "width": 848, "height": 480}],
+       "default-profile": {"fps": 30, "format": "16UC1", "width": 848, "height": 480},
+       "metadata-enabled": true,
+       "options": [{"name": "Exposure", "value": 8500, "min": 1, "max": 165000, "step": 1, "default": 8500,
+                    "description": "Depth Exposure (usec)",
+                    "json": ["Exposure", 8500, 1, 165000, 1, 8500, "Depth Exposure (usec)"]}],
+       "intrinsics": {"width": 848, "height": 480}},
+      {"name": "Motion", "type": "motion", "sensor-name": "Motion Module", "profiles": [{"fps": 200}],
+       "default-profile": null, "metadata-enabled": false, "options": []}],
+    "device-options": [{"name": "Laser Power", "json": ["Laser Power", 150]}],
+    "extrinsics": [{"from": "Depth", "to": "Color", "rotation": [1, 0, 0, 0, 1, 0, 0, 0, 1],
+                    "translation": [0.015, 0, 0]}],
+    "presets": ["Default"]})");
+  const auto d = rsd::model::description_from_json(doc);
+  ASSERT_EQ(d.streams.size(), 2u);
+  EXPECT_EQ(d.streams[0].sensor_name, "Stereo Module");
+  EXPECT_EQ(d.streams[0].profiles[0].width, 848);
+  EXPECT_FALSE(d.streams[1].default_profile);
+  EXPECT_FALSE(d.streams[1].profiles[0].format);
+  EXPECT_EQ(d.streams[0].options[0].default_value, 8500);
+  EXPECT_EQ(rsd::model::to_json(d), doc);
+}
+
+TEST(DescriptionModel, MalformedDocumentsAreNamed) {
+  for (const char* bad : {R"([])", R"({"streams": []})",
+                          R"({"streams": [{"name": "x"}], "device-options": [], "extrinsics": [], "presets": []})",
+                          R"({"streams": [], "device-options": [], "presets": [],
+                              "extrinsics": [{"from": "a", "to": "b", "rotation": [1], "translation": [0, 0, 0]}]})"}) {
+    EXPECT_THROW(rsd::model::description_from_json(nlohmann::json::parse(bad)), rsd::model::MalformedDocument) << bad;
+  }
 }
