@@ -130,7 +130,7 @@ TEST(StatusModel, MalformedDocumentsAreNamed) {
 // ---- the description document ----------------------------------------------------------
 
 TEST(DescriptionModel, RoundTripsWhatTheDaemonServes) {
-  const auto doc = nlohmann::json::parse(R"({
+  const auto doc = nlohmann::json::parse(R"json({
     "streams": [
       {"name": "Depth", "type": "depth", "sensor-name": "Stereo Module",
        "profiles": [{"fps": 30, "format": "16UC1", "width": 848, "height": 480}],
@@ -145,7 +145,7 @@ TEST(DescriptionModel, RoundTripsWhatTheDaemonServes) {
     "device-options": [{"name": "Laser Power", "json": ["Laser Power", 150]}],
     "extrinsics": [{"from": "Depth", "to": "Color", "rotation": [1, 0, 0, 0, 1, 0, 0, 0, 1],
                     "translation": [0.015, 0, 0]}],
-    "presets": ["Default"]})");
+    "presets": ["Default"]})json");
   const auto d = rsd::model::description_from_json(doc);
   ASSERT_EQ(d.streams.size(), 2u);
   EXPECT_EQ(d.streams[0].sensor_name, "Stereo Module");
