@@ -184,9 +184,14 @@ int report(const rsdiscovery::Error& e) {
     case ErrorCode::permission_denied:
     case ErrorCode::cancelled:
       return kUnreachable;
+    case ErrorCode::http_error:
+      // The daemon understood and could not: a camera it cannot describe (409:
+      // recovery firmware, a serial of several) or that did not answer in time (504,
+      // 503): not found or timed out, as the exit status has it.
+      if (e.http_status() == 409 || e.http_status() == 503 || e.http_status() == 504) return kNotFound;
+      return kBadReply;
     case ErrorCode::malformed_reply:
     case ErrorCode::version_mismatch:
-    case ErrorCode::http_error:
       return kBadReply;
   }
   return kBadReply;

@@ -121,6 +121,7 @@ class Table {
 // The subcommands, one per cmd_*.cpp file.
 extern const Command kListCommand;
 extern const Command kGetCommand;
+extern const Command kDescribeCommand;
 extern const Command kWatchCommand;
 extern const Command kDomainsCommand;
 extern const Command kHealthCommand;

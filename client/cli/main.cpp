@@ -8,8 +8,8 @@ namespace {
 
 using namespace rsdiscover;
 
-const Command* const kCommands[] = {&kListCommand, &kGetCommand, &kWatchCommand, &kDomainsCommand,
-                                    &kHealthCommand};
+const Command* const kCommands[] = {&kListCommand, &kGetCommand, &kDescribeCommand, &kWatchCommand,
+                                    &kDomainsCommand, &kHealthCommand};
 
 void usage(std::FILE* out) {
   std::fputs(

@@ -128,6 +128,52 @@ Device Client::get_device(const std::string& id) {
               404);
 }
 
+Description Client::describe(const std::string& id, std::chrono::milliseconds timeout) {
+  const std::string path = "/v1/devices/" + detail::percent_encode(id) + "/description";
+  const auto deadline = Clock::now() + timeout;
+  for (;;) {
+    detail::Reply reply;
+    {
+      std::lock_guard lock(impl_->mutex);
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+      reply = impl_->transport.get(path, std::max(left, std::chrono::milliseconds(1)));
+    }
+    auto body = json::parse(reply.body, nullptr, false);
+    if (reply.status == 200) {
+      if (body.is_discarded()) malformed(impl_->endpoint, "GET " + path + " is not JSON");
+      return detail::description_from_json(body);
+    }
+    std::string message;
+    if (body.is_object() && body.contains("error") && body["error"].is_string())
+      message = body["error"].get<std::string>();
+    if (reply.status == 404)
+      throw Error(ErrorCode::not_found,
+                  message.empty() ? "no device '" + id + "' at rs-discoveryd (" + impl_->endpoint.to_string() + ")"
+                                  : message,
+                  404);
+    if (reply.status == 503 && !reply.retry_after.empty()) {
+      // The daemon is making its DDS participant anew: ask again when it says.
+      int seconds = 1;
+      try {
+        seconds = std::clamp(std::stoi(reply.retry_after), 1, 30);
+      } catch (const std::exception&) {
+      }
+      const auto again = Clock::now() + std::chrono::seconds(seconds);
+      if (again < deadline) {
+        std::this_thread::sleep_until(again);
+        continue;
+      }
+    }
+    if (reply.status == 409 || reply.status == 503 || reply.status == 504)
+      throw Error(ErrorCode::http_error,
+                  "rs-discoveryd at " + impl_->endpoint.to_string() + " cannot describe '" + id + "': " +
+                      (message.empty() ? "HTTP " + std::to_string(reply.status) : message),
+                  reply.status);
+    std::lock_guard lock(impl_->mutex);
+    throw impl_->transport.status_error(path, reply);
+  }
+}
+
 std::vector<DomainStatus> Client::domains() {
   json reply = impl_->get_json("/v1/domains");
   auto list = reply.find("domains");

@@ -11,6 +11,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -24,6 +25,7 @@ namespace rsdiscovery::detail {
 
 // ---- JSON -> public types --------------------------------------------------------
 Device device_from_json(const nlohmann::json& doc);  // throws Error(malformed_reply)
+Description description_from_json(const nlohmann::json& doc);  // throws Error(malformed_reply)
 DomainStatus domain_from_json(const nlohmann::json& doc);
 Health health_from_json(const nlohmann::json& doc);
 
@@ -72,6 +74,7 @@ class SseParser {
 struct Reply {
   int status = 0;
   std::string content_type;
+  std::string retry_after;  // a 503's Retry-After, in seconds
   std::string body;
 };
 
@@ -83,8 +86,9 @@ class Transport {
   Transport& operator=(const Transport&) = delete;
 
   // One GET; throws Error for anything but an HTTP reply (not running, permission
-  // denied, timeout).
-  Reply get(const std::string& path);
+  // denied, timeout). `timeout`: how long the answer may take, when not the usual
+  // request timeout (a description the daemon fetches first may take 30 s).
+  Reply get(const std::string& path, std::optional<std::chrono::milliseconds> timeout = std::nullopt);
   // GET and parse a JSON object (status 200), mapping 404/405 on an API path to
   // version_mismatch and other statuses to http_error.
   nlohmann::json get_json(const std::string& path);
@@ -101,12 +105,13 @@ class Transport {
 
   const Endpoint& endpoint() const { return endpoint_; }
 
+  // The Error a non-200 reply stands for (404/405 on an API path: version mismatch).
+  Error status_error(const std::string& path, const Reply& reply);
+
  private:
   std::unique_ptr<httplib::Client> make_client(std::chrono::milliseconds read_timeout) const;
   [[noreturn]] void fail_transport(int httplib_error, std::chrono::steady_clock::duration elapsed,
                                    std::chrono::milliseconds timeout) const;
-  Error status_error(const std::string& path, const Reply& reply);
-
   Endpoint endpoint_;
   ClientOptions options_;
   std::unique_ptr<httplib::Client> http_;  // kept alive between get()s

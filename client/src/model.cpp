@@ -1,6 +1,7 @@
 // The daemon's JSON documents as the public types, and the small pure helpers.
 #include "internal.hpp"
 
+#include "rsd_model/description.hpp"
 #include "rsd_model/status.hpp"
 
 namespace rsdiscovery {
@@ -87,6 +88,46 @@ Device device_from_json(const json& doc) {
 
 // The model (proto/model/rsd_model/status.hpp) reads the status documents, with the
 // daemon's own spelling and checks; these map them onto the public types.
+namespace {
+
+StreamProfile public_profile(const rsd::model::Profile& p) {
+  return {p.fps, p.format.value_or(""), p.width.value_or(0), p.height.value_or(0)};
+}
+
+std::vector<CameraOption> public_options(const std::vector<rsd::model::Option>& options) {
+  std::vector<CameraOption> out;
+  for (const auto& o : options)
+    out.push_back({o.name, o.value.is_null() ? std::string() : o.value.dump(), o.description.value_or(""),
+                   o.json.dump()});
+  return out;
+}
+
+}  // namespace
+
+Description description_from_json(const json& doc) {
+  rsd::model::Description m;
+  try {
+    m = rsd::model::description_from_json(doc);
+  } catch (const rsd::model::MalformedDocument& e) {
+    malformed(e.what());
+  }
+  Description d;
+  for (const auto& s : m.streams) {
+    CameraStream st;
+    st.name = s.name;
+    st.type = s.type;
+    st.sensor = s.sensor_name;
+    for (const auto& p : s.profiles) st.profiles.push_back(public_profile(p));
+    if (s.default_profile) st.default_profile = public_profile(*s.default_profile);
+    st.metadata = s.metadata_enabled;
+    st.options = public_options(s.options);
+    d.streams.push_back(std::move(st));
+  }
+  d.device_options = public_options(m.device_options);
+  d.json = doc.dump();
+  return d;
+}
+
 DomainStatus domain_from_json(const json& doc) {
   rsd::model::DomainStatus m;
   try {
@@ -176,6 +217,12 @@ std::string Device::field(const std::string& key) const {
   if (!doc.is_object()) return {};
   auto it = doc.find(key);
   return it == doc.end() ? std::string() : it->dump();
+}
+
+Description parse_description(const std::string& json_text) {
+  auto doc = nlohmann::json::parse(json_text, nullptr, false);
+  if (doc.is_discarded()) throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: not JSON");
+  return detail::description_from_json(doc);
 }
 
 Device parse_device(const std::string& json_text) {

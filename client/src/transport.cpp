@@ -123,6 +123,20 @@ Transport::~Transport() = default;
 // small and local; compression buys nothing).
 const std::pair<std::string, std::string> kIdentity{"Accept-Encoding", "identity"};
 
+namespace {
+
+std::pair<time_t, time_t> split(std::chrono::milliseconds ms) {
+  return {static_cast<time_t>(ms.count() / 1000), static_cast<time_t>((ms.count() % 1000) * 1000)};
+}
+
+void set_timeouts(httplib::Client& c, std::chrono::milliseconds read_timeout) {
+  auto [rs, rus] = split(read_timeout);
+  c.set_read_timeout(rs, rus);
+  c.set_write_timeout(rs, rus);
+}
+
+}  // namespace
+
 std::unique_ptr<httplib::Client> Transport::make_client(std::chrono::milliseconds read_timeout) const {
   std::unique_ptr<httplib::Client> c;
   if (endpoint_.kind == Endpoint::Kind::unix_socket) {
@@ -132,15 +146,9 @@ std::unique_ptr<httplib::Client> Transport::make_client(std::chrono::millisecond
     c = std::make_unique<httplib::Client>(endpoint_.host, endpoint_.port);
     c->set_tcp_nodelay(true);  // keep-alive requests would otherwise wait on Nagle
   }
-  auto split = [](std::chrono::milliseconds ms) {
-    return std::pair<time_t, time_t>(static_cast<time_t>(ms.count() / 1000),
-                                     static_cast<time_t>((ms.count() % 1000) * 1000));
-  };
   auto [cs, cus] = split(options_.connect_timeout);
   c->set_connection_timeout(cs, cus);
-  auto [rs, rus] = split(read_timeout);
-  c->set_read_timeout(rs, rus);
-  c->set_write_timeout(rs, rus);
+  set_timeouts(*c, read_timeout);
   c->set_keep_alive(true);
   c->set_decompress(false);
   return c;
@@ -170,7 +178,8 @@ void Transport::fail_transport(int httplib_error, Clock::duration elapsed,
   }
 }
 
-Reply Transport::get(const std::string& path) {
+Reply Transport::get(const std::string& path, std::optional<std::chrono::milliseconds> timeout) {
+  const auto read_timeout = timeout.value_or(options_.request_timeout);
   if (cancelled_) throw Error(ErrorCode::cancelled, "cancelled");
   httplib::Headers headers{{"Host", "localhost"}, {"Accept", "application/json"}, kIdentity};
   for (int attempt = 0;; ++attempt) {
@@ -181,11 +190,14 @@ Reply Transport::get(const std::string& path) {
       http_ = std::move(fresh);
     }
     auto start = Clock::now();
+    if (timeout) set_timeouts(*http_, read_timeout);
     auto res = http_->Get(path, headers);
+    if (timeout && http_) set_timeouts(*http_, options_.request_timeout);
     if (res) {
       Reply reply;
       reply.status = res->status;
       reply.content_type = res->get_header_value("Content-Type");
+      reply.retry_after = res->get_header_value("Retry-After");
       reply.body = std::move(res->body);
       return reply;
     }
@@ -197,7 +209,7 @@ Reply Transport::get(const std::string& path) {
     // A kept-alive connection the daemon closed meanwhile: try once more, afresh.
     if (reused && attempt == 0 && (err == httplib::Error::Read || err == httplib::Error::Write))
       continue;
-    fail_transport(static_cast<int>(err), Clock::now() - start, options_.request_timeout);
+    fail_transport(static_cast<int>(err), Clock::now() - start, read_timeout);
   }
 }
 

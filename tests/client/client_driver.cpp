@@ -3,6 +3,9 @@
 //                                                   on stdout until stdin closes
 //   rsdiscovery_test_driver wait-for ENDPOINT SERIAL SECONDS
 //                                                   prints the device id, or exits 1
+//   rsdiscovery_test_driver describe ENDPOINT ID    prints the typed Description back as
+//                                                   JSON (from the struct's members, not its
+//                                                   json); an Error: its code and status, exit 3
 #include <rsdiscovery/rsdiscovery.hpp>
 
 #include <cstdio>
@@ -65,8 +68,32 @@ int main(int argc, char** argv) {
       line(d->id);
       return 0;
     }
+    if (mode == "describe" && argc == 4) {
+      const auto d = client.describe(argv[3]);
+      auto profile = [](const rsdiscovery::StreamProfile& p) {
+        return "[" + std::to_string(p.fps) + "," + quote(p.format) + "," + std::to_string(p.width) + "," +
+               std::to_string(p.height) + "]";
+      };
+      auto names = [](const std::vector<rsdiscovery::CameraOption>& options) {
+        std::string out = "[";
+        for (const auto& o : options) out += (out.size() > 1 ? "," : "") + quote(o.name);
+        return out + "]";
+      };
+      std::string out = "{\"streams\":[";
+      for (const auto& st : d.streams) {
+        if (out.back() != '[') out += ",";
+        out += "{\"name\":" + quote(st.name) + ",\"type\":" + quote(st.type) + ",\"sensor\":" + quote(st.sensor) +
+               ",\"profiles\":[";
+        for (const auto& p : st.profiles) out += (out.back() == '[' ? "" : ",") + profile(p);
+        out += "],\"default\":" + (st.default_profile ? profile(*st.default_profile) : std::string("null")) +
+               ",\"metadata\":" + (st.metadata ? "true" : "false") + ",\"options\":" + names(st.options) + "}";
+      }
+      out += "],\"device-options\":" + names(d.device_options) + "}";
+      line(out);
+      return 0;
+    }
   } catch (const rsdiscovery::Error& e) {
-    std::fprintf(stderr, "%s: %s\n", rsdiscovery::to_string(e.code()), e.what());
+    std::fprintf(stderr, "%s %d: %s\n", rsdiscovery::to_string(e.code()), e.http_status(), e.what());
     return 3;
   }
   return 2;

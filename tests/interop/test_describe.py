@@ -10,6 +10,7 @@ import time
 
 import pytest
 
+from camera_spec import SPEC, TYPE, WIRE_FORMAT
 from conftest import EventStream, device_info, wait_for
 from test_realdds import dds_id
 
@@ -23,27 +24,6 @@ def check_spec(status, body):
     response = spec()["paths"]["/v1/devices/{id}/description"]["get"]["responses"][str(status)]
     schema = response["content"]["application/json"]["schema"]
     OAS30Validator({**schema, "components": spec()["components"]}).validate(body)
-
-SPEC = {
-    "streams": [
-        {"kind": "color", "name": "Color", "sensor": "RGB Camera",
-         "profiles": [[30, "rgb", 1280, 720], [30, "yuyv", 640, 480], [6, "rgb", 1920, 1080]], "default": 1,
-         "options": [["Backlight Compensation", 0, 0, 1, 1, 0, "Enable / disable backlight compensation"],
-                     ["Brightness", 0, -64, 64, 1, 0, "UVC image brightness"]]},
-        {"kind": "depth", "name": "Depth", "sensor": "Stereo Module",
-         "profiles": [[30, "z16", 848, 480], [90, "z16", 424, 240]], "default": 0,
-         "options": [["Exposure", 8500, 1, 165000, 1, 8500, "Depth Exposure (usec)"]]},
-        {"kind": "ir", "name": "Infrared 1", "sensor": "Stereo Module",
-         "profiles": [[30, "y8", 848, 480]], "default": 0, "options": []},
-        {"kind": "motion", "name": "Motion", "sensor": "Motion Module", "profiles": [[200], [400]], "default": 0,
-         "options": []},
-    ],
-    "device-options": [["Laser Power", 150, 0, 360, 30, 150, "Manual laser power in mw"]],
-    "extrinsics": [["Depth", "Color", [1, 0, 0, 0, 1, 0, 0, 0, 1], [0.015, 0.0, 0.0]]],
-}
-# realdds' names on the wire for the encodings the spec uses (librealsense's table).
-WIRE_FORMAT = {"rgb": "rgb8", "yuyv": "yuv422_yuy2", "z16": "16UC1", "y8": "mono8"}
-TYPE = {"color": "color", "depth": "depth", "ir": "ir", "motion": "motion"}
 
 
 def describe(d, device_id, via="unix"):

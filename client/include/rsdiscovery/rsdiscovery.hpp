@@ -160,6 +160,44 @@ struct Health {
   std::string json;
 };
 
+// ---------------------------------------------------------------------------------
+// Camera Discovery: what a network camera can do, without opening it
+// (GET /v1/devices/{id}/description)
+
+struct StreamProfile {
+  int fps = 0;
+  std::string format;  // realdds' encoding, e.g. "16UC1", "rgb8"; "" for motion streams
+  int width = 0;       // 0 for motion streams
+  int height = 0;
+};
+
+struct CameraOption {
+  std::string name;
+  std::string value;        // JSON text of the current value; "" when not given
+  std::string description;  // "" when not given
+  std::string json;         // the option as the camera's server declared it (range, default ...)
+};
+
+struct CameraStream {
+  std::string name;    // e.g. "Depth", "Infrared 1"
+  std::string type;    // depth, color, ir, motion ...
+  std::string sensor;  // e.g. "Stereo Module"
+  std::vector<StreamProfile> profiles;
+  std::optional<StreamProfile> default_profile;
+  bool metadata = false;  // the stream carries frame metadata
+  std::vector<CameraOption> options;
+};
+
+struct Description {
+  std::vector<CameraStream> streams;
+  std::vector<CameraOption> device_options;
+  std::string json;  // the whole document (extrinsics, presets, intrinsics ...)
+};
+
+// Builds a Description from the daemon's document (JSON object text). Throws
+// Error(malformed_reply) when it is not one.
+RSDISCOVERY_API Description parse_description(const std::string& json_text);
+
 // One answer of GET /v1/devices.
 struct DeviceList {
   std::vector<Device> devices;
@@ -333,6 +371,17 @@ class RSDISCOVERY_API Client {
   // when a serial or topic-root names several devices.
   Device get_device(const std::string& id);
   std::optional<Device> find_device(const std::string& id);  // nothing when absent
+  // Camera Discovery of a network camera (id, serial or topic-root): its streams with
+  // their profiles and options, device options, extrinsics, asked of its realdds
+  // server by the daemon without opening the camera. The first time for a camera it
+  // may take up to the daemon's describe timeout (30 s; `timeout` bounds the wait
+  // here, default 35 s). Throws Error(not_found) when there is no such camera or it is
+  // USB-only (nothing describes those without opening them); Error(http_error) with
+  // http_status() 409 for recovery firmware or a serial of several cameras, 504 when
+  // the camera's server sent no complete description in time. A 503 (the daemon is
+  // rebuilding its DDS participant) is asked again after its Retry-After.
+  Description describe(const std::string& id,
+                       std::chrono::milliseconds timeout = std::chrono::milliseconds(35000));
   std::vector<DomainStatus> domains();
   Health health();
   std::string metrics();  // Prometheus text

@@ -586,13 +586,18 @@ class Client:
         return http.client.HTTPConnection(self.endpoint.host, self.endpoint.port, timeout=timeout)
 
     def _request(self, path: str) -> Tuple[int, bytes]:
-        conn = self._connection(self.timeout)
+        status, _, body = self._request_with_headers(path, self.timeout)
+        return status, body
+
+    def _request_with_headers(self, path: str, timeout: float) -> Tuple[int, Dict[str, str], bytes]:
+        """One GET: (status, lower-cased headers, body)."""
+        conn = self._connection(timeout)
         try:
             conn.request("GET", path, headers={"Accept": "application/json"})
             resp = conn.getresponse()
-            return resp.status, resp.read()
+            return resp.status, {k.lower(): v for k, v in resp.getheaders()}, resp.read()
         except socket.timeout:
-            raise RSDiscoveryError(f"rs-discoveryd at {self.endpoint} did not answer within {self.timeout}s") \
+            raise RSDiscoveryError(f"rs-discoveryd at {self.endpoint} did not answer within {timeout:g}s") \
                 from None
         except OSError as e:
             raise _connect_error(self.endpoint, e) from None
@@ -675,6 +680,44 @@ class Client:
             raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: GET {path} "
                                  "returned a device without an id")
         return doc
+
+    def describe_device(self, device_id: str, timeout: float = 35.0) -> Dict[str, Any]:
+        """What a network camera can do (Camera Discovery), by id, serial or topic-root:
+        ``{"streams": [...], "device-options": [...], "extrinsics": [...], "presets": [...]}``,
+        each stream with its ``profiles`` (fps, format, width, height), ``default-profile``
+        and ``options``, as the camera's realdds server declares them; the daemon asks the
+        server without opening the camera. The first time for a camera that may take up to
+        the daemon's describe timeout (30 s; ``timeout`` bounds the wait here). Raises
+        :class:`NotFound` for no such camera or a USB-only one; :class:`HTTPError` (``status``
+        409) for recovery firmware or a serial of several cameras, 504 when the server did not
+        answer in time. A 503 (the daemon rebuilding its DDS participant) is asked again after
+        its Retry-After."""
+        if not isinstance(device_id, str) or not device_id:
+            raise ValueError(f"device_id must be a device's id, serial or topic-root, not {device_id!r}")
+        _check_seconds("timeout", timeout, allow_zero=False)
+        path = "/v1/devices/" + urllib.parse.quote(device_id, safe="") + "/description"
+        deadline = time.monotonic() + timeout
+        while True:
+            status, headers, body = self._request_with_headers(path, max(deadline - time.monotonic(), 0.001))
+            if status == 200:
+                return self._json_object(path, body)
+            try:
+                doc = json.loads(body)
+                message = doc.get("error") if isinstance(doc, dict) else None
+            except ValueError:
+                message = None
+            if status == 404:
+                raise NotFound(message or f"no device {device_id!r} at rs-discoveryd ({self.endpoint})")
+            retry = headers.get("retry-after", "")
+            if status == 503 and retry.isdigit():
+                again = time.monotonic() + min(max(int(retry), 1), 30)
+                if again < deadline:
+                    time.sleep(again - time.monotonic())
+                    continue
+            if status in (409, 503, 504):
+                raise HTTPError(f"rs-discoveryd at {self.endpoint} cannot describe {device_id!r}: "
+                                f"{message or 'HTTP %d' % status}", status)
+            raise self._status_error(path, status, body)
 
     def domains(self) -> List[Dict[str, Any]]:
         """Per-domain status: state, participant GUID, devices, accepted and rejected messages."""
@@ -766,6 +809,11 @@ def list_devices(domain: Optional[int] = None, product_line: Optional[str] = Non
 def get_device(device_id: str, endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0) -> Device:
     """One device by id; raises :class:`NotFound` (see :meth:`Client.get_device`)."""
     return Client(endpoint, complete_timeout=complete_timeout).get_device(device_id)
+
+
+def describe_device(device_id: str, endpoint: "Endpoint | str | None" = None, timeout: float = 35.0) -> Dict[str, Any]:
+    """What a network camera can do (see :meth:`Client.describe_device`)."""
+    return Client(endpoint).describe_device(device_id, timeout)
 
 
 def domains(endpoint: "Endpoint | str | None" = None) -> List[Dict[str, Any]]:
