@@ -70,6 +70,7 @@ struct ApiServer::Impl {
 
   std::unique_ptr<RequestServer> unix_server;
   std::unique_ptr<RequestServer> http_server;
+  std::unique_ptr<RequestServer> offline_unix, offline_http;  // answer()
   std::unique_ptr<ServerLoop> loop;
   int unix_fd = -1;
   int http_fd = -1;
@@ -623,5 +624,57 @@ void ApiServer::start(const ApiOptions& options) { impl_->start(options); }
 void ApiServer::stop() { impl_->stop(); }
 
 int ApiServer::http_port() const { return impl_->bound_http_port; }
+
+namespace {
+
+// A request held in memory and its answer collected: the offline form of the loop's
+// ConnectionStream.
+class MemoryStream final : public httplib::Stream {
+ public:
+  explicit MemoryStream(std::string_view in) : in_(in) {}
+  std::string out;
+  bool is_readable() const override { return pos_ < in_.size(); }
+  bool is_writable() const override { return true; }
+  ssize_t read(char* ptr, size_t size) override {
+    if (pos_ >= in_.size()) return -1;
+    const auto n = std::min(size, in_.size() - pos_);
+    std::memcpy(ptr, in_.data() + pos_, n);
+    pos_ += n;
+    return static_cast<ssize_t>(n);
+  }
+  ssize_t write(const char* ptr, size_t size) override {
+    out.append(ptr, size);
+    return static_cast<ssize_t>(size);
+  }
+  void get_remote_ip_and_port(std::string& ip, int& port) const override {
+    ip = "127.0.0.1";
+    port = 40000;
+  }
+  void get_local_ip_and_port(std::string& ip, int& port) const override {
+    ip = "127.0.0.1";
+    port = 8035;
+  }
+  socket_t socket() const override { return -1; }
+
+ private:
+  std::string_view in_;
+  std::size_t pos_ = 0;
+};
+
+}  // namespace
+
+std::string ApiServer::answer(std::string_view request, bool http) {
+  // Configured once per kind, as start() configures the listeners' servers; any
+  // value but INVALID_SOCKET keeps httplib writing bodies (see RequestServer).
+  auto& server = http ? impl_->offline_http : impl_->offline_unix;
+  if (!server) {
+    server = std::make_unique<RequestServer>(0);
+    impl_->configure(*server, http);
+  }
+  MemoryStream stream(request);
+  bool closed = false;
+  server->serve(stream, false, closed);
+  return std::move(stream.out);
+}
 
 }  // namespace rsd::api

@@ -7,6 +7,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace rsd::api {
@@ -58,6 +59,11 @@ class ApiServer {
 
   // The TCP port actually bound (useful with http_port 0), or 0 without HTTP.
   int http_port() const;
+
+  // The raw bytes of one HTTP request answered by the routes as a listener would
+  // (`http`: the TCP listener's, Host check and all), without a socket or a loop:
+  // for the fuzzer and tests. An event stream answers with its opening only.
+  std::string answer(std::string_view request, bool http);
 
  private:
   struct Impl;

@@ -108,7 +108,9 @@ void apply_config_json(const std::string& text, Config& config) {
   nlohmann::json doc;
   try {
     doc = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {
+    // Not only parse_error: a number too large for a double is out_of_range (406),
+    // found by fuzz_config; uncaught, it ended the daemon on a reload.
     throw ConfigError(where + ": not valid JSON: " + e.what());
   }
   if (!doc.is_object()) throw ConfigError(where + ": must be a JSON object");

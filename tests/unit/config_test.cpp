@@ -163,3 +163,11 @@ TEST(Config, AllowedHostsAndMaxClients) {
   }
   EXPECT_THROW(parse({"--allowed-host", "has space"}), ConfigError);
 }
+
+TEST(Config, ANumberTooLargeIsAConfigErrorNotACrash) {
+  // Found by fuzz_config: nlohmann's out_of_range escaped as is, and a reload with such
+  // a file ended the daemon (Service::reload catches ConfigError).
+  Config c;
+  EXPECT_THROW(rsd::apply_config_json(R"({"max-devices-per-domain": 64e44444444444444444444})", c), ConfigError);
+  EXPECT_THROW(rsd::apply_config_json(R"({"domains": [1e999]})", c), ConfigError);
+}
