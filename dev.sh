@@ -32,6 +32,8 @@ DEB_PACKAGES=(
   mmdebstrap systemd-container
   # bench/run (and its smoke test): load generators, the nginx anchor, whole-command timing
   wrk nginx-light hyperfine
+  # the fuzz targets under libFuzzer (tests/fuzz; a third tree, build-fuzz)
+  clang libclang-rt-dev
 )
 
 say() { printf '\n==> %s\n' "$*"; }
@@ -93,7 +95,14 @@ case "${1:-}" in
     # -O1: what ASan is meant for, and the second tree compiles in half the time.
     build build-asan -DRSD_SANITIZE=ON -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_FLAGS_DEBUG="-O1 -g1" \
       -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1"
+    # libFuzzer binaries (clang, ASan + UBSan): only the fuzz targets and what they link.
+    say "building the fuzz targets in build-fuzz (clang, libFuzzer)"
+    configure build-fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DRSD_LIBFUZZER=ON \
+      -DRSD_SANITIZE=ON -DRSD_BUILD_CLIENT=OFF
+    cmake --build build-fuzz -j"$(nproc)" --target fuzz_device_info fuzz_request fuzz_api_values fuzz_config
     status=0
+    say "fuzzing: each target replays its corpus, then runs for a few seconds"
+    ctest --test-dir build-fuzz -L fuzz --output-on-failure || status=1
     say "test suite, plain build"
     # Most tests wait on DDS discovery and leases, not the CPU: three at a time.
     ctest --test-dir build -j3 --output-on-failure --timeout 600 || status=1
