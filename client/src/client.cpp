@@ -2,6 +2,7 @@
 #include "watch_core.hpp"
 
 #include <algorithm>
+#include <map>
 #include <mutex>
 #include <thread>
 
@@ -49,6 +50,15 @@ struct Client::Impl {
   }
 
   DeviceList list(const DeviceFilter& filter, Clock::time_point deadline);
+
+  // The last list of each path and its ETag: asked again with If-None-Match, an
+  // unchanged table is a 304 and this copy, not a parse of every document again
+  // (a poller's list of 100 devices went from ~1 ms to the round trip).
+  struct CachedList {
+    std::string etag;
+    DeviceList list;
+  };
+  std::map<std::string, CachedList> lists;  // under `mutex`
 };
 
 Client::Client() : Client(Endpoint::from_environment()) {}
@@ -70,16 +80,32 @@ namespace {
 }  // namespace
 
 DeviceList Client::Impl::list(const DeviceFilter& filter, Clock::time_point deadline) {
-  json reply = get_complete_json(detail::devices_path(filter), deadline);
-  auto list = reply.find("devices");
-  if (list == reply.end() || !list->is_array()) malformed(endpoint, "no \"devices\" array");
-  DeviceList out;
-  out.devices.reserve(list->size());
-  for (const auto& d : *list) out.devices.push_back(detail::device_from_json(d));
-  if (auto g = reply.find("generation"); g != reply.end() && g->is_number_unsigned())
-    out.generation = g->get<std::uint64_t>();
-  out.complete = detail::reports_complete(reply);
-  return out;
+  const std::string path = detail::devices_path(filter);
+  for (;;) {
+    std::unique_lock lock(mutex);
+    auto& cached = lists[path];
+    detail::Reply reply = transport.get(path, std::nullopt, cached.etag);
+    if (reply.status == 304 && !cached.etag.empty()) {
+      if (cached.list.complete || Clock::now() >= deadline) return cached.list;
+    } else {
+      if (reply.status != 200) throw transport.status_error(path, reply);
+      auto doc = json::parse(reply.body, nullptr, false);
+      if (doc.is_discarded() || !doc.is_object())
+        malformed(endpoint, "GET " + path + " did not return a JSON object");
+      auto devices = doc.find("devices");
+      if (devices == doc.end() || !devices->is_array()) malformed(endpoint, "no \"devices\" array");
+      DeviceList out;
+      out.devices.reserve(devices->size());
+      for (const auto& d : *devices) out.devices.push_back(detail::device_from_json(d));
+      if (auto g = doc.find("generation"); g != doc.end() && g->is_number_unsigned())
+        out.generation = g->get<std::uint64_t>();
+      out.complete = detail::reports_complete(doc);
+      cached = {reply.etag, out};
+      if (out.complete || Clock::now() >= deadline) return out;
+    }
+    lock.unlock();
+    pause_until(deadline);  // an incomplete table: ask again until it is complete
+  }
 }
 
 DeviceList Client::list(const DeviceFilter& filter) { return impl_->list(filter, impl_->complete_deadline()); }

@@ -75,6 +75,7 @@ struct Reply {
   int status = 0;
   std::string content_type;
   std::string retry_after;  // a 503's Retry-After, in seconds
+  std::string etag;         // names the body (/v1/devices: the table's generation)
   std::string body;
 };
 
@@ -88,7 +89,8 @@ class Transport {
   // One GET; throws Error for anything but an HTTP reply (not running, permission
   // denied, timeout). `timeout`: how long the answer may take, when not the usual
   // request timeout (a description the daemon fetches first may take 30 s).
-  Reply get(const std::string& path, std::optional<std::chrono::milliseconds> timeout = std::nullopt);
+  Reply get(const std::string& path, std::optional<std::chrono::milliseconds> timeout = std::nullopt,
+            const std::string& if_none_match = "");
   // GET and parse a JSON object (status 200), mapping 404/405 on an API path to
   // version_mismatch and other statuses to http_error.
   nlohmann::json get_json(const std::string& path);

@@ -178,10 +178,12 @@ void Transport::fail_transport(int httplib_error, Clock::duration elapsed,
   }
 }
 
-Reply Transport::get(const std::string& path, std::optional<std::chrono::milliseconds> timeout) {
+Reply Transport::get(const std::string& path, std::optional<std::chrono::milliseconds> timeout,
+                     const std::string& if_none_match) {
   const auto read_timeout = timeout.value_or(options_.request_timeout);
   if (cancelled_) throw Error(ErrorCode::cancelled, "cancelled");
   httplib::Headers headers{{"Host", "localhost"}, {"Accept", "application/json"}, kIdentity};
+  if (!if_none_match.empty()) headers.emplace("If-None-Match", if_none_match);
   for (int attempt = 0;; ++attempt) {
     bool reused = http_ && http_->is_socket_open();
     if (!http_) {
@@ -198,6 +200,7 @@ Reply Transport::get(const std::string& path, std::optional<std::chrono::millise
       reply.status = res->status;
       reply.content_type = res->get_header_value("Content-Type");
       reply.retry_after = res->get_header_value("Retry-After");
+      reply.etag = res->get_header_value("ETag");
       reply.body = std::move(res->body);
       return reply;
     }
