@@ -6,7 +6,9 @@
 #                   Unix socket under the runtime directory); extra arguments go
 #                   to the daemon, e.g. ./dev.sh run --domain 5
 #   ./dev.sh test   install what is missing, build (plain, and with AddressSanitizer
-#                   and UBSan), and run the whole test suite with ctest on both
+#                   and UBSan), and run the whole test suite with ctest on both; also
+#                   the fuzz targets under libFuzzer (clang) and the daemon's threads
+#                   under ThreadSanitizer
 #
 # Needs Debian bookworm (or newer) and root, or sudo, for apt-get.
 set -euo pipefail
@@ -78,6 +80,15 @@ build() {  # build DIR [cmake args...]: every target, tests included
   cmake --build "$dir" -j"$(nproc)"
 }
 
+build_targets() {  # build_targets DIR "TARGET..." [cmake args...]: only these targets
+  local dir=$1 targets=$2
+  shift 2
+  say "building $targets in $dir"
+  configure "$dir" "$@"
+  # shellcheck disable=SC2086  # the targets are words
+  cmake --build "$dir" -j"$(nproc)" --target $targets
+}
+
 case "${1:-}" in
   run)
     shift
@@ -96,16 +107,21 @@ case "${1:-}" in
     build build-asan -DRSD_SANITIZE=ON -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_FLAGS_DEBUG="-O1 -g1" \
       -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1"
     # libFuzzer binaries (clang, ASan + UBSan): only the fuzz targets and what they link.
-    say "building the fuzz targets in build-fuzz (clang, libFuzzer)"
-    configure build-fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DRSD_LIBFUZZER=ON \
-      -DRSD_SANITIZE=ON -DRSD_BUILD_CLIENT=OFF
-    cmake --build build-fuzz -j"$(nproc)" --target fuzz_device_info fuzz_request fuzz_api_values fuzz_config
+    build_targets build-fuzz "fuzz_device_info fuzz_request fuzz_api_values fuzz_config" \
+      -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DRSD_LIBFUZZER=ON -DRSD_SANITIZE=ON -DRSD_BUILD_CLIENT=OFF
+    # ThreadSanitizer (tests/tsan/README.md): the daemon and the API harness only.
+    build_targets build-tsan "rs-discoveryd api_harness" -DRSD_TSAN=ON
     status=0
     say "fuzzing: each target replays its corpus, then runs for a few seconds"
     ctest --test-dir build-fuzz -L fuzz --output-on-failure || status=1
     say "test suite, plain build"
     # Most tests wait on DDS discovery and leases, not the CPU: three at a time.
     ctest --test-dir build -j3 --output-on-failure --timeout 600 || status=1
+    say "the daemon's threads under ThreadSanitizer"
+    TSAN_OPTIONS="halt_on_error=1:exitcode=66:suppressions=$ROOT/tests/tsan/suppressions.txt" RSD_SOAK_SECONDS=30 \
+      ctest --test-dir build-tsan -j3 --output-on-failure --timeout 600 \
+      -R '^(api_harness|api_abuse|api_daemon|daemon_lifecycle|interop_realdds|interop_describe|usb_hotplug|systemd_reload|soak)$' \
+      || status=1
     say "test suite, AddressSanitizer + UBSan build"
     # A sanitizer finding makes the binary exit non-zero, which fails its test.
     # umockdev preloads its library ahead of ASan's runtime: allowed explicitly.

@@ -516,6 +516,44 @@ void ApiServer::Impl::handle_events(const httplib::Request& req, httplib::Respon
   });
 }
 
+namespace {
+
+// A request held in memory and its answer collected: the offline form of the loop's
+// ConnectionStream.
+class MemoryStream final : public httplib::Stream {
+ public:
+  explicit MemoryStream(std::string_view in) : in_(in) {}
+  std::string out;
+  bool is_readable() const override { return pos_ < in_.size(); }
+  bool is_writable() const override { return true; }
+  ssize_t read(char* ptr, size_t size) override {
+    if (pos_ >= in_.size()) return -1;
+    const auto n = std::min(size, in_.size() - pos_);
+    std::memcpy(ptr, in_.data() + pos_, n);
+    pos_ += n;
+    return static_cast<ssize_t>(n);
+  }
+  ssize_t write(const char* ptr, size_t size) override {
+    out.append(ptr, size);
+    return static_cast<ssize_t>(size);
+  }
+  void get_remote_ip_and_port(std::string& ip, int& port) const override {
+    ip = "127.0.0.1";
+    port = 40000;
+  }
+  void get_local_ip_and_port(std::string& ip, int& port) const override {
+    ip = "127.0.0.1";
+    port = 8035;
+  }
+  socket_t socket() const override { return -1; }
+
+ private:
+  std::string_view in_;
+  std::size_t pos_ = 0;
+};
+
+}  // namespace
+
 void ApiServer::Impl::start(const ApiOptions& opts) {
   std::lock_guard lock(lifecycle);
   if (started) throw std::runtime_error("API server already started");
@@ -570,6 +608,16 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
     lo.idle_timeout = std::chrono::milliseconds(opts.idle_timeout_ms);
     lo.stream_buffer_limit = opts.stream_buffer_limit;
     lo.blocking = blocking_target;
+    // One request through each server before the loops exist: cpp-httplib makes
+    // function-local statics on its first request (parse_request_line's set of
+    // methods), and made here, on one thread, they are made before any loop runs
+    // (which also spares ThreadSanitizer a race it cannot see the guard of).
+    for (auto* server : {unix_server.get(), http_server.get()})
+      if (server) {
+        MemoryStream warmup("GET /healthz HTTP/1.1\r\nHost: localhost\r\n\r\n");
+        bool closed = false;
+        server->serve(warmup, true, closed);
+      }
     loop = std::make_unique<ServerLoop>(lo);
     loop->start(listeners);
     table.set_change_hook([l = loop.get()] { l->notify_change(); });
@@ -624,44 +672,6 @@ void ApiServer::start(const ApiOptions& options) { impl_->start(options); }
 void ApiServer::stop() { impl_->stop(); }
 
 int ApiServer::http_port() const { return impl_->bound_http_port; }
-
-namespace {
-
-// A request held in memory and its answer collected: the offline form of the loop's
-// ConnectionStream.
-class MemoryStream final : public httplib::Stream {
- public:
-  explicit MemoryStream(std::string_view in) : in_(in) {}
-  std::string out;
-  bool is_readable() const override { return pos_ < in_.size(); }
-  bool is_writable() const override { return true; }
-  ssize_t read(char* ptr, size_t size) override {
-    if (pos_ >= in_.size()) return -1;
-    const auto n = std::min(size, in_.size() - pos_);
-    std::memcpy(ptr, in_.data() + pos_, n);
-    pos_ += n;
-    return static_cast<ssize_t>(n);
-  }
-  ssize_t write(const char* ptr, size_t size) override {
-    out.append(ptr, size);
-    return static_cast<ssize_t>(size);
-  }
-  void get_remote_ip_and_port(std::string& ip, int& port) const override {
-    ip = "127.0.0.1";
-    port = 40000;
-  }
-  void get_local_ip_and_port(std::string& ip, int& port) const override {
-    ip = "127.0.0.1";
-    port = 8035;
-  }
-  socket_t socket() const override { return -1; }
-
- private:
-  std::string_view in_;
-  std::size_t pos_ = 0;
-};
-
-}  // namespace
 
 std::string ApiServer::answer(std::string_view request, bool http) {
   // Configured once per kind, as start() configures the listeners' servers; any
