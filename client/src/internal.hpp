@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <atomic>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -15,11 +16,7 @@
 #include <string>
 #include <string_view>
 #include <utility>
-
-namespace httplib {
-class Client;
-struct Response;
-}  // namespace httplib
+#include <vector>
 
 namespace rsdiscovery::detail {
 
@@ -111,14 +108,17 @@ class Transport {
   Error status_error(const std::string& path, const Reply& reply);
 
  private:
-  std::unique_ptr<httplib::Client> make_client(std::chrono::milliseconds read_timeout) const;
-  [[noreturn]] void fail_transport(int httplib_error, std::chrono::steady_clock::duration elapsed,
-                                   std::chrono::milliseconds timeout) const;
+  struct Connection;
+  std::string request_text(const std::string& path, const char* accept,
+                           const std::vector<std::pair<std::string, std::string>>& extra) const;
+  [[noreturn]] void fail(int io_end, std::chrono::milliseconds timeout) const;
+  void drop_kept();
+
   Endpoint endpoint_;
   ClientOptions options_;
-  std::unique_ptr<httplib::Client> http_;  // kept alive between get()s
-  std::mutex stream_mutex_;
-  httplib::Client* streaming_ = nullptr;  // the stream's client, for cancel()
+  std::mutex mutex_;  // guards kept_ and streaming_ against cancel() from another thread
+  std::unique_ptr<Connection> kept_;        // kept alive between get()s
+  std::shared_ptr<Connection> streaming_;   // the stream's, for cancel()
   std::atomic<bool> cancelled_{false};
 };
 
