@@ -386,9 +386,10 @@ Reply Transport::get(const std::string& path, std::optional<std::chrono::millise
                                                   ": not an HTTP response to GET " + path);
     }
     if (!head) {
-      drop_kept();
+      const bool nothing_came = c.buffer.empty();
+      drop_kept();  // `c` is gone from here on
       // A kept-alive connection the daemon closed meanwhile: once more, afresh.
-      if (reused && attempt == 0 && c.buffer.empty() && end == IoEnd::closed) continue;
+      if (reused && attempt == 0 && nothing_came && end == IoEnd::closed) continue;
       fail(static_cast<int>(end), read_timeout);
     }
     Reply reply;
