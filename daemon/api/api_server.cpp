@@ -45,8 +45,8 @@ bool blocking_target(std::string_view target) {
 }
 
 bool known_path(const std::string& path) {
-  static const std::set<std::string> fixed = {"/v1/devices", "/v1/events", "/v1/domains", "/healthz",
-                                              "/metrics"};
+  static const std::set<std::string> fixed = {"/v1/devices", "/v1/events", "/v1/domains", "/v1/participants",
+                                              "/healthz", "/metrics"};
   return fixed.contains(path) || std::regex_match(path, kDeviceRoute);
 }
 
@@ -129,6 +129,7 @@ struct ApiServer::Impl {
   // or topic-root.
   std::vector<nlohmann::json> lookup(const std::string& name) const;
   void handle_domains(const httplib::Request& req, httplib::Response& res);
+  void handle_participants(const httplib::Request& req, httplib::Response& res);
   void handle_health(const httplib::Request& req, httplib::Response& res);
   void handle_metrics(const httplib::Request& req, httplib::Response& res);
   void handle_events(const httplib::Request& req, httplib::Response& res);
@@ -150,6 +151,7 @@ void ApiServer::Impl::configure(RequestServer& svr, bool http) {
   svr.Get(R"(/v1/devices/(.+)/description)", [this](const auto& req, auto& res) { handle_description(req, res); });
   svr.Get(R"(/v1/devices/(.+))", [this](const auto& req, auto& res) { handle_device(req, res); });
   svr.Get("/v1/domains", [this](const auto& req, auto& res) { handle_domains(req, res); });
+  svr.Get("/v1/participants", [this](const auto& req, auto& res) { handle_participants(req, res); });
   svr.Get("/v1/events", [this](const auto& req, auto& res) { handle_events(req, res); });
   svr.Get("/healthz", [this](const auto& req, auto& res) { handle_health(req, res); });
   svr.Get("/metrics", [this](const auto& req, auto& res) { handle_metrics(req, res); });
@@ -357,6 +359,15 @@ void ApiServer::Impl::handle_domains(const httplib::Request& req, httplib::Respo
     list.push_back(domain_status_json(d));
   }
   send_json(res, 200, {{"complete", complete(all)}, {"domains", std::move(list)}});
+}
+
+void ApiServer::Impl::handle_participants(const httplib::Request& req, httplib::Response& res) {
+  ParticipantFilter filter;
+  if (auto err = parse_participant_filter(req.params, filter)) return send_error(res, 400, *err);
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& p : status.participants())
+    if (filter.matches(p)) list.push_back(model::to_json(p));
+  send_json(res, 200, {{"participants", std::move(list)}});
 }
 
 void ApiServer::Impl::handle_health(const httplib::Request& req, httplib::Response& res) {

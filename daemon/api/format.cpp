@@ -100,6 +100,26 @@ std::optional<std::string> parse_device_filter(const QueryParams& params, Device
   return std::nullopt;
 }
 
+std::optional<std::string> parse_participant_filter(const QueryParams& params, ParticipantFilter& out) {
+  if (auto err = check_params("/v1/participants", params, {"domain", "state"})) return err;
+  for (const auto& [key, value] : params) {
+    if (key == "domain") {
+      auto d = parse_domain(value);
+      if (!d) return "bad domain '" + value + "': expected an integer 0..232";
+      out.domains.insert(*d);
+    } else {
+      auto state = model::parse_participant_state(lower(value));
+      if (!state) return "bad state '" + value + "': expected alive, lost or left";
+      out.states.insert(*state);
+    }
+  }
+  return std::nullopt;
+}
+
+bool ParticipantFilter::matches(const model::Participant& p) const {
+  return (domains.empty() || domains.contains(p.domain)) && (states.empty() || states.contains(p.state));
+}
+
 bool DeviceFilter::matches(const nlohmann::json& doc) const {
   if (!doc.is_object()) return false;
   if (empty()) return true;  // the common case costs no conversion

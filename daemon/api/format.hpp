@@ -7,6 +7,7 @@
 #include "status/usb_status.hpp"
 
 #include "rsd_model/device.hpp"
+#include "rsd_model/participant.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -54,6 +55,15 @@ std::optional<std::string> check_params(std::string_view route, const QueryParam
 // in `also_allowed` (check_params). Returns the error message for a 400, or nothing.
 std::optional<std::string> parse_device_filter(const QueryParams& params, DeviceFilter& out,
                                                const std::set<std::string>& also_allowed = {});
+
+// /v1/participants' filter, by the same rule: ?domain= and ?state= (alive, lost,
+// left), each repeatable.
+struct ParticipantFilter {
+  std::set<int> domains;
+  std::set<model::ParticipantState> states;
+  bool matches(const model::Participant& p) const;
+};
+std::optional<std::string> parse_participant_filter(const QueryParams& params, ParticipantFilter& out);
 
 // A DDS domain id as the API accepts it: decimal 0..232, nothing else.
 std::optional<int> parse_domain(std::string_view text);

@@ -233,6 +233,21 @@ DomainBook::Due DomainBook::tick(Clock::time_point now, const std::set<Handle>& 
   return due;
 }
 
+std::map<std::string, PublisherCounts> DomainBook::publishers(Clock::time_point now) const {
+  std::map<std::string, PublisherCounts> out;
+  for (const auto& [h, w] : writers_) {
+    auto& c = out[w.identity.participant_guid];
+    ++c.writers;
+    if (!w.sent && now - w.matched_at >= options_.silent_grace) ++c.silent;
+  }
+  for (auto& [guid, c] : out) {
+    const auto n = per_participant_.find(guid);
+    c.devices = n == per_participant_.end() ? 0 : n->second;
+    c.never_announced = c.devices == 0 && c.silent >= static_cast<std::size_t>(kIdleWritersPerServer) + 1;
+  }
+  return out;
+}
+
 void DomainBook::forget_devices() {
   for (const auto& [id, device] : devices_) table_.remove(id);
   devices_.clear();

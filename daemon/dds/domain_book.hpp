@@ -8,6 +8,7 @@
 #include "dds/device_info.hpp"
 #include "dds/domain_status.hpp"
 #include "dds/lost_servers.hpp"
+#include "dds/participant_book.hpp"
 #include "table/shared_table.hpp"
 
 #include <nlohmann/json.hpp>
@@ -93,6 +94,9 @@ class DomainBook {
   std::map<std::string, nlohmann::json> announcements() const;
   // devices, accepted, stopping, rejected, lost_servers.
   void fill(DomainStatus& status) const;
+  // Per participant GUID: its writers on the topic, the devices they announce,
+  // and those silent past the grace (for /v1/participants).
+  std::map<std::string, PublisherCounts> publishers(Clock::time_point now) const;
 
  private:
   struct Writer {

@@ -145,6 +145,7 @@ void DomainSession::stop() {
   state_ = DomainState::stopped;
   participant_guid_.clear();
   book_.participant_made();  // the next participant hears everyone anew
+  participants_.participant_rebuilt();
 }
 
 void DomainSession::rebuild() {
@@ -268,30 +269,116 @@ void DomainSession::on_participant_data(dds_entity_t reader, void* arg) {
   }
 }
 
+namespace {
+
+// Every loaned read of the DCPSParticipant reader passes an array this long.
+// Cyclone 0.10.2 fills as many pointers of the caller's array as its cached loan
+// holds, which is the largest count any read of the reader asked for, not the
+// count given (measured: a one-sample read after a 16-sample one wrote 15
+// pointers past a one-element array, over the caller's stack; the daemon then
+// aborted in free()). Kept one size, no read can overrun.
+constexpr std::size_t kParticipantBatch = 16;
+using ParticipantLoan = std::array<void*, kParticipantBatch>;
+
+// A participant as DDS announced it (its SPDP, as Cyclone keeps it), read
+// from the DCPSParticipant reader by instance; nothing if it is gone meanwhile.
+std::optional<ParticipantSighting> read_participant(dds_entity_t reader, dds_instance_handle_t handle) {
+  ParticipantLoan loan{};
+  dds_sample_info_t info{};
+  if (dds_read_instance(reader, loan.data(), &info, kParticipantBatch, 1, handle) <= 0) return std::nullopt;
+  const auto& p = *static_cast<const dds_builtintopic_participant_t*>(loan[0]);
+  ParticipantSighting s;
+  s.guid = guid_to_string(p.key);
+  if (!p.qos) {
+    dds_return_loan(reader, loan.data(), 1);
+    return s;
+  }
+  // Untrusted text from the network: kept only when it is UTF-8 (the API is JSON).
+  const auto text = [](char* value) -> std::optional<std::string> {
+    std::optional<std::string> out;
+    if (value && is_valid_utf8(value)) out = value;
+    dds_free(value);
+    return out;
+  };
+  char* value = nullptr;
+  if (dds_qget_entity_name(p.qos, &value)) s.name = text(value).value_or("");
+  value = nullptr;
+  if (dds_qget_prop(p.qos, "__NetworkAddresses", &value)) {
+    s.addresses = split_addresses(value);
+    dds_free(value);
+  }
+  // Cyclone peers say where they run (measured: Fast DDS peers do not).
+  value = nullptr;
+  if (dds_qget_prop(p.qos, "__Hostname", &value)) s.host = text(value);
+  value = nullptr;
+  if (dds_qget_prop(p.qos, "__ProcessName", &value)) s.process = text(value);
+  value = nullptr;
+  if (dds_qget_prop(p.qos, "__Pid", &value)) {
+    if (auto pid = text(value)) {
+      char* end = nullptr;
+      const long long n = std::strtoll(pid->c_str(), &end, 10);
+      if (end && *end == '\0' && !pid->empty() && n > 0) s.pid = n;
+    }
+  }
+  dds_liveliness_kind_t kind{};
+  dds_duration_t lease = 0;
+  if (dds_qget_liveliness(p.qos, &kind, &lease) && lease > 0 && lease != DDS_INFINITY)
+    s.lease_seconds = static_cast<double>(lease) / 1e9;
+  dds_return_loan(reader, loan.data(), 1);
+  return s;
+}
+
+}  // namespace
+
 void DomainSession::take_participant_changes(dds_entity_t reader) {
-  // Only samples not read before: each is a participant appearing or leaving.
-  // They are read, not taken, so writer_for() can still look names up.
-  constexpr std::size_t kBatch = 16;
-  std::array<void*, kBatch> samples{};
-  std::array<dds_sample_info_t, kBatch> infos{};
+  // Only samples not read before: each is a participant appearing, changing or
+  // leaving. Alive ones are read, not taken, so identify() can still look names
+  // up; a gone one is taken, or Cyclone would keep every peer that ever came by.
+  ParticipantLoan samples{};
+  std::array<dds_sample_info_t, kParticipantBatch> infos{};
+  struct Change {
+    dds_instance_handle_t handle;
+    std::string guid;
+    dds_instance_state_t state;
+  };
+  std::vector<Change> changes;
   for (;;) {
     samples.fill(nullptr);
-    const dds_return_t n = dds_read_mask(reader, samples.data(), infos.data(), kBatch, kBatch,
+    const dds_return_t n = dds_read_mask(reader, samples.data(), infos.data(), kParticipantBatch, kParticipantBatch,
                                          DDS_NOT_READ_SAMPLE_STATE | DDS_ANY_VIEW_STATE | DDS_ANY_INSTANCE_STATE);
     if (n <= 0) break;
-    {
-      std::lock_guard lock(mutex_);
-      for (dds_return_t i = 0; i < n; ++i) {
-        const auto* p = static_cast<const dds_builtintopic_participant_t*>(samples[static_cast<std::size_t>(i)]);
-        const std::string guid = guid_to_string(p->key);
-        const bool alive = infos[static_cast<std::size_t>(i)].instance_state == DDS_IST_ALIVE;
-        if (alive) book_.participant_alive(guid, Clock::now());
-        else book_.participant_gone(guid);
-        log::debug([&] { return log::domain_prefix(options_.domain) + "participant " + guid + (alive ? " alive" : " gone"); });
-      }
+    for (dds_return_t i = 0; i < n; ++i) {
+      const auto& info = infos[static_cast<std::size_t>(i)];
+      const auto* p = static_cast<const dds_builtintopic_participant_t*>(samples[static_cast<std::size_t>(i)]);
+      changes.push_back({info.instance_handle, guid_to_string(p->key), info.instance_state});
     }
     dds_return_loan(reader, samples.data(), n);
-    if (static_cast<std::size_t>(n) < kBatch) break;
+    if (static_cast<std::size_t>(n) < kParticipantBatch) break;
+  }
+  if (changes.empty()) return;
+  const std::string now = SharedTable::now_iso8601();
+  for (const auto& c : changes) {
+    const bool alive = c.state == DDS_IST_ALIVE;
+    std::optional<ParticipantSighting> sighting;
+    if (alive) sighting = read_participant(reader, c.handle);
+    std::lock_guard lock(mutex_);
+    if (alive) {
+      book_.participant_alive(c.guid, Clock::now());
+      if (sighting && c.guid != participant_guid_) participants_.alive(std::move(*sighting), now);
+    } else {
+      book_.participant_gone(c.guid);
+      // Measured with Cyclone 0.10: a lease running out unregisters the
+      // instance (no writers), a participant deleted by its owner disposes it.
+      participants_.gone(c.guid, c.state == DDS_IST_NOT_ALIVE_NO_WRITERS, now);
+    }
+    log::debug([&] { return log::domain_prefix(options_.domain) + "participant " + c.guid + (alive ? " alive" : " gone"); });
+  }
+  for (const auto& c : changes) {
+    if (c.state == DDS_IST_ALIVE) continue;
+    ParticipantLoan loan{};
+    std::array<dds_sample_info_t, kParticipantBatch> info{};
+    const dds_return_t n = dds_take_instance(reader, loan.data(), info.data(), kParticipantBatch, kParticipantBatch, c.handle);
+    if (n > 0) dds_return_loan(reader, loan.data(), n);
   }
 }
 
@@ -341,21 +428,9 @@ void DomainSession::identify(dds_entity_t reader, dds_instance_handle_t publicat
   const dds_instance_handle_t participant_handle = ep->participant_instance_handle;
   dds_builtintopic_free_endpoint(ep);
   if (participant_reader_ > 0) {
-    void* sample = nullptr;
-    dds_sample_info_t info{};
-    if (dds_read_instance(participant_reader_, &sample, &info, 1, 1, participant_handle) > 0) {
-      const auto* p = static_cast<const dds_builtintopic_participant_t*>(sample);
-      char* name = nullptr;
-      if (p->qos && dds_qget_entity_name(p->qos, &name) && name) {
-        w.participant_name = is_valid_utf8(name) ? name : "";
-        dds_free(name);
-      }
-      char* addresses = nullptr;
-      if (p->qos && dds_qget_prop(p->qos, "__NetworkAddresses", &addresses) && addresses) {
-        w.addresses = split_addresses(addresses);
-        dds_free(addresses);
-      }
-      dds_return_loan(participant_reader_, &sample, 1);
+    if (auto p = read_participant(participant_reader_, participant_handle)) {
+      w.participant_name = std::move(p->name);
+      w.addresses = std::move(p->addresses);
     }
   }
   book_.writer_matched(publication, std::move(w), Clock::now());
@@ -383,6 +458,12 @@ std::optional<DescribeResult> DomainSession::describe(const std::string& topic_r
   // first-seen/last-seen are the table's, not part of it; what the server
   // announced (and which server) decides whether a kept description still holds.
   return fetcher_.describe(topic_root, *announcement, wait);
+}
+
+std::vector<model::Participant> DomainSession::participants() const {
+  const std::string now = SharedTable::now_iso8601();
+  std::lock_guard lock(mutex_);
+  return participants_.list(options_.domain, now, book_.publishers(Clock::now()));
 }
 
 DomainStatus DomainSession::status() const {

@@ -86,6 +86,8 @@ class DomainSession {
   int domain() const { return options_.domain; }
   DomainStatus status() const;
   bool discovery_complete() const;  // status().complete, without the rest
+  // Every participant heard on the domain but the daemon's own. Any thread.
+  std::vector<model::Participant> participants() const;
 
  private:
   bool complete_locked() const;
@@ -122,6 +124,7 @@ class DomainSession {
   std::string error_;
   std::string participant_guid_;
   DomainBook book_;
+  ParticipantBook participants_;
   DescriptionFetcher fetcher_;  // its own lock: never taken while holding mutex_
   std::optional<Clock::time_point> first_reader_at_;  // kept across rebuilds
   std::uint64_t rebuilds_ = 0, refreshes_ = 0;

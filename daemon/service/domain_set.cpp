@@ -108,6 +108,16 @@ std::vector<DomainStatus> DomainSet::status() const {
   return out;
 }
 
+std::vector<model::Participant> DomainSet::participants() const {
+  std::lock_guard lock(mutex_);
+  std::vector<model::Participant> out;
+  for (const auto& [d, s] : sessions_) {
+    auto some = s->participants();
+    out.insert(out.end(), std::make_move_iterator(some.begin()), std::make_move_iterator(some.end()));
+  }
+  return out;
+}
+
 bool DomainSet::discovery_complete() const {
   const auto version = set_version_.load();
   if (complete_version_.load() == version) return true;

@@ -56,6 +56,8 @@ class DomainSet {
   // Every domain's first discovery is over. Lock-free once it is (until the set of
   // domains changes): the API asks it for every device list.
   bool discovery_complete() const;
+  // Every domain's participants, by domain.
+  std::vector<model::Participant> participants() const;
 
   // Camera Discovery for the device `id` (an entry of the table, or a sighting
   // merged into one): its description from its realdds server, waiting up to

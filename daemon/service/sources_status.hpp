@@ -17,6 +17,7 @@ class SourcesStatus final : public StatusSource {
 
   std::vector<DomainStatus> domains() const override { return domains_.status(); }
   bool discovery_complete() const override { return domains_.discovery_complete(); }
+  std::vector<model::Participant> participants() const override { return domains_.participants(); }
   std::optional<UsbStatus> usb() const override { return usb_.status(); }
   DeviceDescription describe(const std::string& id) const override { return domains_.describe(id, describe_wait_); }
 

@@ -8,6 +8,8 @@
 #include "status/domain_status.hpp"
 #include "status/usb_status.hpp"
 
+#include "rsd_model/participant.hpp"
+
 #include <optional>
 #include <string>
 #include <vector>
@@ -28,6 +30,8 @@ class StatusSource {
       if (!d.complete) return false;
     return true;
   }
+  // Every DDS participant heard on the joined domains (the daemon's own aside).
+  virtual std::vector<model::Participant> participants() const = 0;
   // Nothing when USB is turned off (--no-usb, "usb": false), now.
   virtual std::optional<UsbStatus> usb() const = 0;
   // Camera Discovery of the device `id` (an entry of the table); blocks up to the

@@ -22,6 +22,16 @@ class NoSources final : public rsd::StatusSource {
     d.complete = true;
     return {d};
   }
+  std::vector<rsd::model::Participant> participants() const override {
+    rsd::model::Participant p;
+    p.guid = "010f78fd.3e2482db.00000000.000001c1";
+    p.vendor_id = "01.0f";
+    p.vendor = rsd::model::Vendor::fast_dds;
+    p.addresses = {"192.0.2.2"};
+    p.device_info_writers = 2;
+    p.devices = 1;
+    return {p};
+  }
   std::optional<rsd::UsbStatus> usb() const override { return rsd::UsbStatus{"hotplug", "", 2, 2, 0, 0}; }
   rsd::DeviceDescription describe(const std::string&) const override {
     return {rsd::DeviceDescription::Outcome::timeout, {}, "the fuzzer's cameras never answer"};

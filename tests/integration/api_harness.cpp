@@ -34,6 +34,7 @@ class HarnessStatus final : public rsd::StatusSource {
     std::lock_guard lock(mutex_);
     return domains_;
   }
+  std::vector<rsd::model::Participant> participants() const override { return {}; }
   std::optional<rsd::UsbStatus> usb() const override { return std::nullopt; }
   rsd::DeviceDescription describe(const std::string&) const override {
     return {rsd::DeviceDescription::Outcome::not_found, {}, "the harness describes no devices"};

@@ -2,6 +2,7 @@
 // lookup rule; the default-socket rule the daemon and the clients share.
 #include "rsd_model/device.hpp"
 #include "rsd_model/description.hpp"
+#include "rsd_model/participant.hpp"
 #include "rsd_model/status.hpp"
 #include "rsd_model/socket_path.hpp"
 
@@ -125,6 +126,57 @@ TEST(StatusModel, MalformedDocumentsAreNamed) {
   }
   EXPECT_THROW(rsd::model::health_from_json(nlohmann::json::parse(R"({"status": "ok", "version": 1})")),
                rsd::model::MalformedDocument);
+}
+
+// ---- the participant document ---------------------------------------------------------
+
+TEST(ParticipantModel, RoundTripsWithAndWithoutTheOptionalKeys) {
+  Participant p;
+  p.domain = 3;
+  p.guid = "010f78fd.3e2482db.00000000.000001c1";
+  p.name = "camera";
+  p.vendor_id = vendor_id_of(p.guid);
+  p.vendor = vendor_of(p.vendor_id);
+  p.addresses = {"192.0.2.2"};
+  p.first_seen = p.last_seen = "2026-11-24T06:50:45.206Z";
+  auto doc = to_json(p);
+  EXPECT_EQ(doc["vendor"], "fast-dds");
+  EXPECT_EQ(doc["vendor-id"], "01.0f");
+  EXPECT_FALSE(doc.contains("host"));
+  EXPECT_EQ(to_json(participant_from_json(doc)), doc);
+  p.host = "vm";
+  p.process = "python";
+  p.pid = 12;
+  p.lease_seconds = 10.0;
+  p.state = ParticipantState::lost;
+  doc = to_json(p);
+  EXPECT_EQ(doc.size(), 17u);  // the spec's Participant, every key
+  EXPECT_EQ(to_json(participant_from_json(doc)), doc);
+}
+
+TEST(ParticipantModel, VendorsByTheirRtpsId) {
+  EXPECT_EQ(vendor_of(vendor_id_of("0110b82b.a2cb9cf6.1994d528.000001c1")), Vendor::cyclone_dds);
+  EXPECT_EQ(vendor_of(vendor_id_of("010f78fd.17307682.00000000.000001c1")), Vendor::fast_dds);
+  EXPECT_EQ(vendor_of(vendor_id_of("0101aaaa.17307682.00000000.000001c1")), Vendor::rti_connext);
+  EXPECT_EQ(vendor_of(vendor_id_of("zz")), Vendor::other);
+  for (auto v : {Vendor::fast_dds, Vendor::cyclone_dds, Vendor::rti_connext, Vendor::opendds, Vendor::other})
+    EXPECT_EQ(parse_vendor(to_string(v)), v);
+}
+
+TEST(ParticipantModel, MalformedEntriesAreNamedAndUnknownVendorsReadAsOther) {
+  Participant p;
+  p.guid = "g";
+  auto doc = to_json(p);
+  doc["vendor"] = "a-newer-one";
+  EXPECT_EQ(participant_from_json(doc).vendor, Vendor::other);
+  for (const char* key : {"guid", "state", "addresses", "never-announced"}) {
+    auto bad = to_json(p);
+    bad[key] = 5;
+    EXPECT_THROW(participant_from_json(bad), MalformedDocument) << key;
+  }
+  auto bad = to_json(p);
+  bad["state"] = "sleeping";
+  EXPECT_THROW(participant_from_json(bad), MalformedDocument);
 }
 
 // ---- the description document ----------------------------------------------------------

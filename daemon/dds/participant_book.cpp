@@ -1,0 +1,74 @@
+#include "dds/participant_book.hpp"
+
+#include <algorithm>
+
+namespace rsd::dds {
+
+void ParticipantBook::alive(ParticipantSighting s, const std::string& now) {
+  model::Participant* p = nullptr;
+  if (auto it = alive_.find(s.guid); it != alive_.end()) {
+    p = &it->second;  // its announcement changed (a new name, an address more)
+  } else {
+    if (alive_.size() >= max_alive_) {
+      ++unlisted_;
+      return;
+    }
+    p = &alive_[s.guid];
+    p->first_seen = now;
+    // Back after being lost: one entry for it, the alive one.
+    std::erase_if(gone_, [&](const model::Participant& g) { return g.guid == s.guid; });
+  }
+  p->guid = std::move(s.guid);
+  p->name = std::move(s.name);
+  p->vendor_id = model::vendor_id_of(p->guid);
+  p->vendor = model::vendor_of(p->vendor_id);
+  p->addresses = std::move(s.addresses);
+  p->host = std::move(s.host);
+  p->process = std::move(s.process);
+  p->pid = s.pid;
+  p->lease_seconds = s.lease_seconds;
+  p->state = model::ParticipantState::alive;
+}
+
+void ParticipantBook::gone(const std::string& guid, bool lease_expired, const std::string& now) {
+  const auto it = alive_.find(guid);
+  if (it == alive_.end()) {
+    if (unlisted_ > 0) --unlisted_;  // one of those never listed
+    return;
+  }
+  model::Participant p = std::move(it->second);
+  alive_.erase(it);
+  p.state = lease_expired ? model::ParticipantState::lost : model::ParticipantState::left;
+  p.last_seen = now;
+  gone_.push_back(std::move(p));
+  while (gone_.size() > max_gone_) gone_.pop_front();
+}
+
+void ParticipantBook::participant_rebuilt() {
+  alive_.clear();
+  unlisted_ = 0;
+}
+
+std::vector<model::Participant> ParticipantBook::list(int domain, const std::string& now,
+                                                      const std::map<std::string, PublisherCounts>& publishers) const {
+  std::vector<model::Participant> out;
+  out.reserve(alive_.size() + gone_.size());
+  for (const auto& [guid, p] : alive_) {
+    out.push_back(p);
+    out.back().last_seen = now;  // heard within its lease, or it would be gone
+  }
+  for (auto it = gone_.rbegin(); it != gone_.rend(); ++it) out.push_back(*it);
+  for (auto& p : out) {
+    p.domain = domain;
+    if (p.state != model::ParticipantState::alive) continue;  // its writers went with it
+    if (auto c = publishers.find(p.guid); c != publishers.end()) {
+      p.device_info_writers = c->second.writers;
+      p.devices = c->second.devices;
+      p.silent_writers = c->second.silent;
+      p.never_announced = c->second.never_announced;
+    }
+  }
+  return out;
+}
+
+}  // namespace rsd::dds

@@ -1,0 +1,65 @@
+// Who is on a domain: every DDS participant the daemon's own participant has
+// heard, alive or recently gone, for /v1/participants and `rs-discover doctor`.
+// Pure bookkeeping fed by DomainSession from Cyclone's DCPSParticipant reader;
+// the wall-clock times come in as text so tests give made-up ones.
+#pragma once
+
+#include "rsd_model/participant.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace rsd::dds {
+
+// What DDS tells of a participant (its SPDP announcement, as Cyclone keeps it).
+struct ParticipantSighting {
+  std::string guid;
+  std::string name;
+  std::vector<std::string> addresses;
+  std::optional<std::string> host, process;
+  std::optional<std::int64_t> pid;
+  std::optional<double> lease_seconds;
+};
+
+// A participant's writers on realsense/device-info, from DomainBook::publishers.
+struct PublisherCounts {
+  std::size_t writers = 0, devices = 0, silent = 0;
+  bool never_announced = false;  // see model::Participant
+};
+
+class ParticipantBook {
+ public:
+  // Bounds, so a domain full of short-lived peers (a test rig restarting a
+  // thousand times) cannot grow the daemon: alive ones beyond `max_alive` are
+  // not listed (counted in `unlisted`), and only the latest `max_gone` of those
+  // gone are remembered.
+  explicit ParticipantBook(std::size_t max_alive = 4096, std::size_t max_gone = 256)
+      : max_alive_(max_alive), max_gone_(max_gone) {}
+
+  // Heard (first time, or its announcement changed, or back after being gone).
+  void alive(ParticipantSighting sighting, const std::string& now);
+  // Its lease ran out (`lease_expired`) or it said goodbye.
+  void gone(const std::string& guid, bool lease_expired, const std::string& now);
+  // The daemon's participant was made anew: it hears every alive peer again and
+  // those it does not are not there; the gone ones are kept.
+  void participant_rebuilt();
+
+  // Every participant, alive first then the gone ones latest first; `publishers`
+  // by participant GUID, from DomainBook.
+  std::vector<model::Participant> list(int domain, const std::string& now,
+                                       const std::map<std::string, PublisherCounts>& publishers) const;
+  std::size_t unlisted() const { return unlisted_; }
+
+ private:
+  std::size_t max_alive_, max_gone_;
+  std::map<std::string, model::Participant> alive_;  // by GUID
+  std::deque<model::Participant> gone_;               // oldest first
+  std::size_t unlisted_ = 0;
+};
+
+}  // namespace rsd::dds

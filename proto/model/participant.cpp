@@ -1,0 +1,150 @@
+#include "rsd_model/participant.hpp"
+
+namespace rsd::model {
+
+namespace {
+
+namespace key {
+constexpr const char* domain = "domain";
+constexpr const char* guid = "guid";
+constexpr const char* name = "name";
+constexpr const char* vendor = "vendor";
+constexpr const char* vendor_id = "vendor-id";
+constexpr const char* addresses = "addresses";
+constexpr const char* host = "host";
+constexpr const char* process = "process";
+constexpr const char* pid = "pid";
+constexpr const char* lease_seconds = "lease-seconds";
+constexpr const char* state = "state";
+constexpr const char* first_seen = "first-seen";
+constexpr const char* last_seen = "last-seen";
+constexpr const char* device_info_writers = "device-info-writers";
+constexpr const char* devices = "devices";
+constexpr const char* silent_writers = "silent-writers";
+constexpr const char* never_announced = "never-announced";
+}  // namespace key
+
+constexpr const char* kWhat = "a participant entry";
+
+const nlohmann::json& member(const nlohmann::json& doc, const char* name) {
+  const auto it = doc.find(name);
+  if (it == doc.end()) throw MalformedDocument(std::string(kWhat) + " has no \"" + name + "\"");
+  return *it;
+}
+
+std::string text(const nlohmann::json& v, const char* name) {
+  if (!v.is_string()) throw MalformedDocument(std::string(kWhat) + ": \"" + name + "\" is not a string");
+  return v.get<std::string>();
+}
+
+std::size_t count(const nlohmann::json& doc, const char* name) {
+  const auto& v = member(doc, name);
+  if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<std::int64_t>() >= 0))
+    throw MalformedDocument(std::string(kWhat) + ": \"" + name + "\" is not a count");
+  return v.get<std::size_t>();
+}
+
+int hex_digit(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+}  // namespace
+
+std::optional<Vendor> parse_vendor(std::string_view name) {
+  for (auto v : {Vendor::fast_dds, Vendor::cyclone_dds, Vendor::rti_connext, Vendor::opendds, Vendor::other})
+    if (to_string(v) == name) return v;
+  return std::nullopt;
+}
+
+std::optional<ParticipantState> parse_participant_state(std::string_view name) {
+  for (auto s : {ParticipantState::alive, ParticipantState::lost, ParticipantState::left})
+    if (to_string(s) == name) return s;
+  return std::nullopt;
+}
+
+std::string vendor_id_of(std::string_view guid) {
+  if (guid.size() < 4) return "";
+  for (std::size_t i = 0; i < 4; ++i)
+    if (hex_digit(guid[i]) < 0) return "";
+  std::string out;
+  out += guid.substr(0, 2);
+  out += '.';
+  out += guid.substr(2, 2);
+  return out;
+}
+
+Vendor vendor_of(std::string_view vendor_id) {
+  // The OMG's vendor id registry (https://www.dds-foundation.org/dds-rtps-vendor-and-product-ids/).
+  if (vendor_id == "01.0f") return Vendor::fast_dds;
+  if (vendor_id == "01.10") return Vendor::cyclone_dds;
+  if (vendor_id == "01.01") return Vendor::rti_connext;
+  if (vendor_id == "01.03") return Vendor::opendds;
+  return Vendor::other;
+}
+
+nlohmann::json to_json(const Participant& p) {
+  nlohmann::json doc = {{key::domain, p.domain},
+                        {key::guid, p.guid},
+                        {key::name, p.name},
+                        {key::vendor, to_string(p.vendor)},
+                        {key::vendor_id, p.vendor_id},
+                        {key::addresses, p.addresses},
+                        {key::state, to_string(p.state)},
+                        {key::first_seen, p.first_seen},
+                        {key::last_seen, p.last_seen},
+                        {key::device_info_writers, p.device_info_writers},
+                        {key::devices, p.devices},
+                        {key::silent_writers, p.silent_writers},
+                        {key::never_announced, p.never_announced}};
+  if (p.host) doc[key::host] = *p.host;
+  if (p.process) doc[key::process] = *p.process;
+  if (p.pid) doc[key::pid] = *p.pid;
+  if (p.lease_seconds) doc[key::lease_seconds] = *p.lease_seconds;
+  return doc;
+}
+
+Participant participant_from_json(const nlohmann::json& doc) {
+  if (!doc.is_object()) throw MalformedDocument(std::string(kWhat) + " is not a JSON object");
+  Participant p;
+  const auto& domain = member(doc, key::domain);
+  if (!domain.is_number_integer() || domain.get<std::int64_t>() < 0 || domain.get<std::int64_t>() > 232)
+    throw MalformedDocument("a participant entry's \"domain\" is not a domain id");
+  p.domain = domain.get<int>();
+  p.guid = text(member(doc, key::guid), key::guid);
+  p.name = text(member(doc, key::name), key::name);
+  const auto vendor = text(member(doc, key::vendor), key::vendor);
+  // A vendor this client does not know yet (a newer daemon's) reads as "other".
+  p.vendor = parse_vendor(vendor).value_or(Vendor::other);
+  p.vendor_id = text(member(doc, key::vendor_id), key::vendor_id);
+  const auto& addresses = member(doc, key::addresses);
+  if (!addresses.is_array()) throw MalformedDocument("a participant entry's \"addresses\" is not an array");
+  for (const auto& a : addresses) p.addresses.push_back(text(a, key::addresses));
+  if (auto it = doc.find(key::host); it != doc.end()) p.host = text(*it, key::host);
+  if (auto it = doc.find(key::process); it != doc.end()) p.process = text(*it, key::process);
+  if (auto it = doc.find(key::pid); it != doc.end()) {
+    if (!it->is_number_integer()) throw MalformedDocument("a participant entry's \"pid\" is not a number");
+    p.pid = it->get<std::int64_t>();
+  }
+  if (auto it = doc.find(key::lease_seconds); it != doc.end()) {
+    if (!it->is_number()) throw MalformedDocument("a participant entry's \"lease-seconds\" is not a number");
+    p.lease_seconds = it->get<double>();
+  }
+  const auto state = text(member(doc, key::state), key::state);
+  const auto parsed = parse_participant_state(state);
+  if (!parsed) throw MalformedDocument("a participant entry has an unknown state '" + state + "'");
+  p.state = *parsed;
+  p.first_seen = text(member(doc, key::first_seen), key::first_seen);
+  p.last_seen = text(member(doc, key::last_seen), key::last_seen);
+  p.device_info_writers = count(doc, key::device_info_writers);
+  p.devices = count(doc, key::devices);
+  p.silent_writers = count(doc, key::silent_writers);
+  const auto& never = member(doc, key::never_announced);
+  if (!never.is_boolean()) throw MalformedDocument("a participant entry's \"never-announced\" is not true or false");
+  p.never_announced = never.get<bool>();
+  return p;
+}
+
+}  // namespace rsd::model

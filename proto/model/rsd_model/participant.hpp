@@ -1,0 +1,85 @@
+// A DDS participant as /v1/participants shows it (proto/openapi.yaml
+// `Participant`): who is on a joined domain, seen from the daemon's own
+// participant, whether or not it announces cameras. The daemon fills it from
+// Cyclone's DCPSParticipant reader and its device-info bookkeeping; the C++ client
+// reads it back through participant_from_json.
+#pragma once
+
+#include "rsd_model/status.hpp"  // MalformedDocument
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace rsd::model {
+
+// The DDS implementation, from the first two bytes of the GUID (the RTPS vendor
+// id; measured: realdds on Fast DDS 01.0f, Cyclone 0.10 and 0.11 01.10).
+enum class Vendor { fast_dds, cyclone_dds, rti_connext, opendds, other };
+
+constexpr std::string_view to_string(Vendor v) {
+  switch (v) {
+    case Vendor::fast_dds: return "fast-dds";
+    case Vendor::cyclone_dds: return "cyclone-dds";
+    case Vendor::rti_connext: return "rti-connext";
+    case Vendor::opendds: return "opendds";
+    case Vendor::other: return "other";
+  }
+  return "other";  // not reached
+}
+std::optional<Vendor> parse_vendor(std::string_view name);
+// "01.0f" from a GUID as the API writes it ("010f78fd.3e2482db...."); "" if it is not one.
+std::string vendor_id_of(std::string_view guid);
+Vendor vendor_of(std::string_view vendor_id);
+
+// alive: its lease holds. lost: its lease ran out without a goodbye (a crash, a
+// cut cable, a firewall that let its first packets through). left: it said
+// goodbye (deleted its participant).
+enum class ParticipantState { alive, lost, left };
+
+constexpr std::string_view to_string(ParticipantState s) {
+  switch (s) {
+    case ParticipantState::alive: return "alive";
+    case ParticipantState::lost: return "lost";
+    case ParticipantState::left: return "left";
+  }
+  return "left";  // not reached
+}
+std::optional<ParticipantState> parse_participant_state(std::string_view name);
+
+struct Participant {
+  int domain = 0;
+  std::string guid;
+  std::string name;       // its entity name ("" when it gives none)
+  Vendor vendor = Vendor::other;
+  std::string vendor_id;  // "01.0f"
+  std::vector<std::string> addresses;  // the hosts of its unicast locators, as Cyclone heard them
+  std::optional<std::string> host;     // Cyclone peers name their host, process and pid
+  std::optional<std::string> process;
+  std::optional<std::int64_t> pid;
+  std::optional<double> lease_seconds;  // the liveliness lease it announced
+  ParticipantState state = ParticipantState::alive;
+  std::string first_seen;  // ISO 8601 UTC
+  std::string last_seen;   // now while alive; when it was lost or left
+  // Its writers on realsense/device-info matched by the daemon, the devices they
+  // announced, and those that matched long ago (the daemon's silent grace) and
+  // never wrote. A realdds server has one such writer that never writes by design
+  // (it only watches for readers); more than one, with no device, is a server
+  // whose announcements do not arrive.
+  std::size_t device_info_writers = 0;
+  std::size_t devices = 0;
+  std::size_t silent_writers = 0;
+  // A realdds server whose device writers matched and never announced a device:
+  // two or more silent writers and no device (the cause is on the network path,
+  // or the server is stuck; the daemon has already asked it to announce again).
+  bool never_announced = false;
+};
+
+nlohmann::json to_json(const Participant& p);
+Participant participant_from_json(const nlohmann::json& doc);  // throws MalformedDocument
+
+}  // namespace rsd::model
