@@ -109,7 +109,7 @@ std::optional<std::string> parse_participant_filter(const QueryParams& params, P
       out.domains.insert(*d);
     } else {
       auto state = model::parse_participant_state(lower(value));
-      if (!state) return "bad state '" + value + "': expected alive, lost or left";
+      if (!state) return "bad state '" + value + "': expected alive or gone";
       out.states.insert(*state);
     }
   }

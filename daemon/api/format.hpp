@@ -56,8 +56,8 @@ std::optional<std::string> check_params(std::string_view route, const QueryParam
 std::optional<std::string> parse_device_filter(const QueryParams& params, DeviceFilter& out,
                                                const std::set<std::string>& also_allowed = {});
 
-// /v1/participants' filter, by the same rule: ?domain= and ?state= (alive, lost,
-// left), each repeatable.
+// /v1/participants' filter, by the same rule: ?domain= and ?state= (alive, gone),
+// each repeatable.
 struct ParticipantFilter {
   std::set<int> domains;
   std::set<model::ParticipantState> states;

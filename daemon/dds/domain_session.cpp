@@ -99,6 +99,12 @@ void DomainSession::start() {
   }
   dds_guid_t guid{};
   dds_get_guid(participant_, &guid);
+  {
+    // Known before the participant reader exists: its listener runs at once and
+    // leaves the daemon's own participant out of /v1/participants by it.
+    std::lock_guard lock(mutex_);
+    participant_guid_ = guid_to_string(guid);
+  }
   // Read, never taken: Cyclone keeps each live participant's sample here, so a
   // writer's participant name and addresses can be looked up by instance handle.
   // Its listener also tells which participants are alive, to tell a lost server
@@ -126,7 +132,6 @@ void DomainSession::start() {
   joined_at_ = Clock::now();
   fetcher_.set_participant(participant_);
   std::lock_guard lock(mutex_);
-  participant_guid_ = guid_to_string(guid);
   // A participant made anew keeps the domain's devices meanwhile: "rebuilding"
   // says so until its reader reads again; a first join is "settling".
   state_ = rebuilding_ ? DomainState::rebuilding : DomainState::settling;
@@ -367,9 +372,7 @@ void DomainSession::take_participant_changes(dds_entity_t reader) {
       if (sighting && c.guid != participant_guid_) participants_.alive(std::move(*sighting), now);
     } else {
       book_.participant_gone(c.guid);
-      // Measured with Cyclone 0.10: a lease running out unregisters the
-      // instance (no writers), a participant deleted by its owner disposes it.
-      participants_.gone(c.guid, c.state == DDS_IST_NOT_ALIVE_NO_WRITERS, now);
+      participants_.gone(c.guid, now);
     }
     log::debug([&] { return log::domain_prefix(options_.domain) + "participant " + c.guid + (alive ? " alive" : " gone"); });
   }

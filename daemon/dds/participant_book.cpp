@@ -30,7 +30,7 @@ void ParticipantBook::alive(ParticipantSighting s, const std::string& now) {
   p->state = model::ParticipantState::alive;
 }
 
-void ParticipantBook::gone(const std::string& guid, bool lease_expired, const std::string& now) {
+void ParticipantBook::gone(const std::string& guid, const std::string& now) {
   const auto it = alive_.find(guid);
   if (it == alive_.end()) {
     if (unlisted_ > 0) --unlisted_;  // one of those never listed
@@ -38,7 +38,7 @@ void ParticipantBook::gone(const std::string& guid, bool lease_expired, const st
   }
   model::Participant p = std::move(it->second);
   alive_.erase(it);
-  p.state = lease_expired ? model::ParticipantState::lost : model::ParticipantState::left;
+  p.state = model::ParticipantState::gone;
   p.last_seen = now;
   gone_.push_back(std::move(p));
   while (gone_.size() > max_gone_) gone_.pop_front();

@@ -43,8 +43,8 @@ class ParticipantBook {
 
   // Heard (first time, or its announcement changed, or back after being gone).
   void alive(ParticipantSighting sighting, const std::string& now);
-  // Its lease ran out (`lease_expired`) or it said goodbye.
-  void gone(const std::string& guid, bool lease_expired, const std::string& now);
+  // It said goodbye or its lease ran out (Cyclone tells neither apart).
+  void gone(const std::string& guid, const std::string& now);
   // The daemon's participant was made anew: it hears every alive peer again and
   // those it does not are not there; the gone ones are kept.
   void participant_rebuilt();

@@ -60,7 +60,7 @@ std::optional<Vendor> parse_vendor(std::string_view name) {
 }
 
 std::optional<ParticipantState> parse_participant_state(std::string_view name) {
-  for (auto s : {ParticipantState::alive, ParticipantState::lost, ParticipantState::left})
+  for (auto s : {ParticipantState::alive, ParticipantState::gone})
     if (to_string(s) == name) return s;
   return std::nullopt;
 }

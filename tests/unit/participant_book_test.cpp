@@ -74,20 +74,20 @@ TEST(ParticipantBook, AChangedAnnouncementKeepsFirstSeen) {
   EXPECT_EQ(list[0].first_seen, "T1");
 }
 
-TEST(ParticipantBook, LostAndLeftAreToldApartAndListedLatestFirst) {
+TEST(ParticipantBook, GoneOnesAreListedAfterTheAliveLatestFirst) {
   ParticipantBook book;
   book.alive(fast_dds(1), "T1");
   book.alive(fast_dds(2), "T1");
   book.alive(fast_dds(3), "T1");
-  book.gone(fast_dds(1).guid, /*lease_expired=*/true, "T4");
-  book.gone(fast_dds(2).guid, /*lease_expired=*/false, "T5");
+  book.gone(fast_dds(1).guid, "T4");
+  book.gone(fast_dds(2).guid, "T5");
   const auto list = book.list(0, "T9", {{fast_dds(1).guid, {2, 1, 0, false}}});
   ASSERT_EQ(list.size(), 3u);
   EXPECT_EQ(list[0].state, ParticipantState::alive);
   EXPECT_EQ(list[1].guid, fast_dds(2).guid);
-  EXPECT_EQ(list[1].state, ParticipantState::left);
+  EXPECT_EQ(list[1].state, ParticipantState::gone);
   EXPECT_EQ(list[1].last_seen, "T5");
-  EXPECT_EQ(list[2].state, ParticipantState::lost);
+  EXPECT_EQ(list[2].state, ParticipantState::gone);
   EXPECT_EQ(list[2].last_seen, "T4");
   EXPECT_EQ(list[2].device_info_writers, 0u);  // its writers went with it
 }
@@ -95,7 +95,7 @@ TEST(ParticipantBook, LostAndLeftAreToldApartAndListedLatestFirst) {
 TEST(ParticipantBook, OneComingBackIsListedOnceAsAliveWithANewFirstSeen) {
   ParticipantBook book;
   book.alive(fast_dds(1), "T1");
-  book.gone(fast_dds(1).guid, true, "T2");
+  book.gone(fast_dds(1).guid, "T2");
   book.alive(fast_dds(1), "T3");
   const auto list = book.list(0, "T9", {});
   ASSERT_EQ(list.size(), 1u);
@@ -108,22 +108,22 @@ TEST(ParticipantBook, StaysBoundedWithEndlessNewPeers) {
   for (int n = 0; n < 100; ++n) book.alive(fast_dds(n), "T");
   EXPECT_EQ(book.list(0, "T", {}).size(), 4u);
   EXPECT_EQ(book.unlisted(), 96u);
-  for (int n = 0; n < 100; ++n) book.gone(fast_dds(n).guid, true, "T");
+  for (int n = 0; n < 100; ++n) book.gone(fast_dds(n).guid, "T");
   EXPECT_EQ(book.unlisted(), 0u);
   const auto list = book.list(0, "T", {});
   ASSERT_EQ(list.size(), 3u);  // the latest gone only
-  for (const auto& p : list) EXPECT_EQ(p.state, ParticipantState::lost);
+  for (const auto& p : list) EXPECT_EQ(p.state, ParticipantState::gone);
 }
 
 TEST(ParticipantBook, ARebuiltParticipantForgetsTheAliveOnesOnly) {
   ParticipantBook book;
   book.alive(fast_dds(1), "T1");
   book.alive(fast_dds(2), "T1");
-  book.gone(fast_dds(2).guid, true, "T2");
+  book.gone(fast_dds(2).guid, "T2");
   book.participant_rebuilt();
   const auto list = book.list(0, "T9", {});
   ASSERT_EQ(list.size(), 1u);
-  EXPECT_EQ(list[0].state, ParticipantState::lost);
+  EXPECT_EQ(list[0].state, ParticipantState::gone);
 }
 
 TEST(DomainBookPublishers, CountsWritersDevicesAndSilence) {

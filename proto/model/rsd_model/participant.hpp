@@ -36,18 +36,19 @@ std::optional<Vendor> parse_vendor(std::string_view name);
 std::string vendor_id_of(std::string_view guid);
 Vendor vendor_of(std::string_view vendor_id);
 
-// alive: its lease holds. lost: its lease ran out without a goodbye (a crash, a
-// cut cable, a firewall that let its first packets through). left: it said
-// goodbye (deleted its participant).
-enum class ParticipantState { alive, lost, left };
+// alive: its lease holds. gone: it said goodbye, or its lease ran out (a crash,
+// a cut cable, a firewall that let its first packets through): Cyclone DDS
+// disposes the participant alike in both cases (measured with 0.10.2: a realdds
+// server killed with SIGKILL and one deleted by its owner look the same), so the
+// API does not pretend to tell them apart.
+enum class ParticipantState { alive, gone };
 
 constexpr std::string_view to_string(ParticipantState s) {
   switch (s) {
     case ParticipantState::alive: return "alive";
-    case ParticipantState::lost: return "lost";
-    case ParticipantState::left: return "left";
+    case ParticipantState::gone: return "gone";
   }
-  return "left";  // not reached
+  return "gone";  // not reached
 }
 std::optional<ParticipantState> parse_participant_state(std::string_view name);
 
@@ -64,7 +65,7 @@ struct Participant {
   std::optional<double> lease_seconds;  // the liveliness lease it announced
   ParticipantState state = ParticipantState::alive;
   std::string first_seen;  // ISO 8601 UTC
-  std::string last_seen;   // now while alive; when it was lost or left
+  std::string last_seen;   // now while alive; when it went
   // Its writers on realsense/device-info matched by the daemon, the devices they
   // announced, and those that matched long ago (the daemon's silent grace) and
   // never wrote. A realdds server has one such writer that never writes by design
