@@ -124,6 +124,7 @@ extern const Command kGetCommand;
 extern const Command kDescribeCommand;
 extern const Command kWatchCommand;
 extern const Command kDomainsCommand;
+extern const Command kParticipantsCommand;
 extern const Command kHealthCommand;
 
 }  // namespace rsdiscover

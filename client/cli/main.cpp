@@ -9,7 +9,7 @@ namespace {
 using namespace rsdiscover;
 
 const Command* const kCommands[] = {&kListCommand, &kGetCommand, &kDescribeCommand, &kWatchCommand,
-                                    &kDomainsCommand, &kHealthCommand};
+                                    &kDomainsCommand, &kParticipantsCommand, &kHealthCommand};
 
 void usage(std::FILE* out) {
   std::fputs(
@@ -17,7 +17,7 @@ void usage(std::FILE* out) {
       "Ask rs-discoveryd, the RealSense discovery daemon, which cameras are around\n"
       "(over DDS and USB), without waiting for discovery yourself.\n\nCommands:\n",
       out);
-  for (const Command* c : kCommands) std::fprintf(out, "  %-9s %s\n", c->name, c->summary);
+  for (const Command* c : kCommands) std::fprintf(out, "  %-12s %s\n", c->name, c->summary);
   std::fputs(
       "\nRun 'rs-discover COMMAND --help' for a command's options.\n"
       "The daemon is reached at --endpoint, else $RS_DISCOVERY_ENDPOINT, else its default\n"

@@ -209,6 +209,15 @@ std::vector<DomainStatus> Client::domains() {
   return out;
 }
 
+std::vector<Participant> Client::participants(std::optional<int> domain) {
+  json reply = impl_->get_json(domain ? "/v1/participants?domain=" + std::to_string(*domain) : "/v1/participants");
+  auto list = reply.find("participants");
+  if (list == reply.end() || !list->is_array()) malformed(impl_->endpoint, "no \"participants\" array");
+  std::vector<Participant> out;
+  for (const auto& p : *list) out.push_back(detail::participant_from_json(p));
+  return out;
+}
+
 Health Client::health() { return detail::health_from_json(impl_->get_json("/healthz")); }
 
 std::string Client::metrics() {

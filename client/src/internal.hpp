@@ -25,6 +25,7 @@ Device device_from_json(const nlohmann::json& doc);  // throws Error(malformed_r
 Description description_from_json(const nlohmann::json& doc);  // throws Error(malformed_reply)
 DomainStatus domain_from_json(const nlohmann::json& doc);
 Health health_from_json(const nlohmann::json& doc);
+Participant participant_from_json(const nlohmann::json& doc);
 
 // The same device document, apart from fields that move without being news
 // ("last-seen"; "first-seen", which a restarted daemon sets anew for a camera that

@@ -2,6 +2,7 @@
 #include "internal.hpp"
 
 #include "rsd_model/description.hpp"
+#include "rsd_model/participant.hpp"
 #include "rsd_model/status.hpp"
 
 namespace rsdiscovery {
@@ -145,6 +146,32 @@ DomainStatus domain_from_json(const json& doc) {
   s.complete = m.complete;
   s.json = doc.dump();
   return s;
+}
+
+Participant participant_from_json(const json& doc) {
+  rsd::model::Participant m;
+  try {
+    m = rsd::model::participant_from_json(doc);
+  } catch (const rsd::model::MalformedDocument& e) {
+    malformed(e.what());
+  }
+  Participant p;
+  p.domain = m.domain;
+  p.guid = std::move(m.guid);
+  p.name = std::move(m.name);
+  p.vendor = std::string(rsd::model::to_string(m.vendor));
+  p.addresses = std::move(m.addresses);
+  p.host = m.host.value_or("");
+  p.process = m.process.value_or("");
+  p.lease_seconds = m.lease_seconds;
+  p.state = std::string(rsd::model::to_string(m.state));
+  p.first_seen = std::move(m.first_seen);
+  p.last_seen = std::move(m.last_seen);
+  p.device_info_writers = m.device_info_writers;
+  p.devices = m.devices;
+  p.never_announced = m.never_announced;
+  p.json = doc.dump();
+  return p;
 }
 
 Health health_from_json(const json& doc) {

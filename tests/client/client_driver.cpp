@@ -68,6 +68,18 @@ int main(int argc, char** argv) {
       line(d->id);
       return 0;
     }
+    if (mode == "participants") {
+      for (const auto& p : client.participants()) {
+        std::string addresses = "[";
+        for (const auto& a : p.addresses) addresses += (addresses.size() > 1 ? "," : "") + quote(a);
+        line("{\"name\":" + quote(p.name) + ",\"vendor\":" + quote(p.vendor) + ",\"state\":" + quote(p.state) +
+             ",\"devices\":" + std::to_string(p.devices) + ",\"lease\":" +
+             (p.lease_seconds ? std::to_string(*p.lease_seconds) : std::string("null")) + ",\"addresses\":" +
+             addresses + "],\"never_announced\":" + (p.never_announced ? "true" : "false") +
+             ",\"guid\":" + quote(p.guid) + "}");
+      }
+      return 0;
+    }
     if (mode == "describe" && argc == 4) {
       const auto d = client.describe(argv[3]);
       auto profile = [](const rsdiscovery::StreamProfile& p) {

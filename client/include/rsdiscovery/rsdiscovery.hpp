@@ -150,6 +150,26 @@ struct DomainStatus {
   std::string json;  // the whole entry
 };
 
+// A DDS participant the daemon hears on one of its domains (GET /v1/participants):
+// realdds servers, librealsense and ROS programs, other DDS tools.
+struct Participant {
+  int domain = 0;
+  std::string guid;
+  std::string name;       // "" when it gives none
+  std::string vendor;     // "fast-dds" (realdds), "cyclone-dds", "rti-connext", "opendds", "other"
+  std::vector<std::string> addresses;
+  std::string host, process;  // "" unless it says (Cyclone DDS peers do)
+  std::optional<double> lease_seconds;
+  std::string state;           // "alive" or "gone"
+  std::string first_seen, last_seen;  // ISO 8601 UTC
+  std::uint64_t device_info_writers = 0;
+  std::uint64_t devices = 0;
+  // A realdds server whose device writers matched but none of whose announcements
+  // arrived: the network path or the server is at fault.
+  bool never_announced = false;
+  std::string json;  // the whole entry
+};
+
 struct Health {
   std::string status;  // "ok" when healthy
   std::string version;
@@ -383,6 +403,9 @@ class RSDISCOVERY_API Client {
   Description describe(const std::string& id,
                        std::chrono::milliseconds timeout = std::chrono::milliseconds(35000));
   std::vector<DomainStatus> domains();
+  // Every participant heard on the daemon's domains (or on `domain` only), alive
+  // first, then those gone, latest first.
+  std::vector<Participant> participants(std::optional<int> domain = std::nullopt);
   Health health();
   std::string metrics();  // Prometheus text
 

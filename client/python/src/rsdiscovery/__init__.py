@@ -20,6 +20,7 @@ from ._client import (
     get_device,
     health,
     list_devices,
+    participants,
     wait_for,
     watch,
 )
@@ -43,6 +44,7 @@ __all__ = [
     "get_device",
     "health",
     "list_devices",
+    "participants",
     "wait_for",
     "watch",
 ]

@@ -33,6 +33,9 @@ def _parser() -> argparse.ArgumentParser:
     _filters(w)
     _filters(sub.add_parser("watch", help="one line per camera added, changed or removed, until Ctrl-C"))
     sub.add_parser("domains", help="the DDS domains the daemon joined")
+    pa = sub.add_parser("participants", help="who is on the DDS network (cameras, programs, tools)")
+    pa.add_argument("--domain", type=int, help="only this DDS domain")
+    pa.add_argument("--all", action="store_true", help="also those gone")
     sub.add_parser("health", help="the daemon's health")
     return p
 
@@ -76,6 +79,9 @@ def run(argv: Optional[List[str]] = None) -> int:
                     print(f"{e.type:8} {e.device.get('id', '')}  {e.device.get('name', '')}", flush=True)
         elif args.command == "domains":
             print(json.dumps(client.domains(), indent=None if args.json else 2))
+        elif args.command == "participants":
+            found = client.participants(args.domain, None if args.all else "alive")
+            print(json.dumps(found, indent=None if args.json else 2))
         elif args.command == "health":
             print(json.dumps(client.health(), indent=None if args.json else 2))
     except KeyboardInterrupt:

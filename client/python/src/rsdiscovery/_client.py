@@ -726,6 +726,21 @@ class Client:
             raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: no list of domains")
         return doms
 
+    def participants(self, domain: Optional[int] = None, state: Optional[str] = None) -> List[Dict[str, Any]]:
+        """Every DDS participant the daemon hears (``/v1/participants``): realdds servers,
+        librealsense and ROS programs, other DDS tools, with ``vendor``, ``addresses``,
+        ``devices``, ``state`` ("alive" or "gone") and more; alive ones first."""
+        _check_filters(domain, None, None)
+        if state is not None and (not isinstance(state, str) or state.lower() not in ("alive", "gone")):
+            raise ValueError(f"state must be 'alive' or 'gone', not {state!r}")
+        params = [("domain", str(domain))] if domain is not None else []
+        params += [("state", state.lower())] if state is not None else []
+        path = "/v1/participants" + ("?" + urllib.parse.urlencode(params) if params else "")
+        found = self._get_json(path).get("participants")
+        if not isinstance(found, list):
+            raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: no list of participants")
+        return found
+
     def health(self) -> Dict[str, Any]:
         """``{"status": "ok", "version": ..., "devices": N, "complete": true, ...}``; ``complete`` is
         false while the daemon's first discovery still runs (``devices`` is not final then)."""
@@ -819,6 +834,12 @@ def describe_device(device_id: str, endpoint: "Endpoint | str | None" = None, ti
 def domains(endpoint: "Endpoint | str | None" = None) -> List[Dict[str, Any]]:
     """Per-domain status (see :meth:`Client.domains`)."""
     return Client(endpoint).domains()
+
+
+def participants(domain: Optional[int] = None, state: Optional[str] = None,
+                 endpoint: "Endpoint | str | None" = None) -> List[Dict[str, Any]]:
+    """Every DDS participant the daemon hears (see :meth:`Client.participants`)."""
+    return Client(endpoint).participants(domain, state)
 
 
 def health(endpoint: "Endpoint | str | None" = None) -> Dict[str, Any]:
