@@ -36,6 +36,8 @@ DEB_PACKAGES=(
   wrk nginx-light hyperfine
   # the fuzz targets under libFuzzer (tests/fuzz; a third tree, build-fuzz)
   clang libclang-rt-dev
+  # the daemon's web page, tested in a real headless browser
+  chromium chromium-driver
 )
 
 say() { printf '\n==> %s\n' "$*"; }

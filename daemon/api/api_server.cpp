@@ -1,5 +1,6 @@
 #include "api/api_server.hpp"
 
+#include "api/embedded.hpp"
 #include "api/format.hpp"
 #include "api/host_check.hpp"
 #include "api/listener.hpp"
@@ -45,8 +46,8 @@ bool blocking_target(std::string_view target) {
 }
 
 bool known_path(const std::string& path) {
-  static const std::set<std::string> fixed = {"/v1/devices", "/v1/events", "/v1/domains", "/v1/participants",
-                                              "/healthz", "/metrics"};
+  static const std::set<std::string> fixed = {"/",       "/openapi.yaml", "/v1/devices", "/v1/events", "/v1/domains",
+                                              "/v1/participants", "/healthz", "/metrics"};
   return fixed.contains(path) || std::regex_match(path, kDeviceRoute);
 }
 
@@ -131,6 +132,8 @@ struct ApiServer::Impl {
   void handle_domains(const httplib::Request& req, httplib::Response& res);
   void handle_participants(const httplib::Request& req, httplib::Response& res);
   void handle_health(const httplib::Request& req, httplib::Response& res);
+  void handle_page(const httplib::Request& req, httplib::Response& res);
+  void handle_spec(const httplib::Request& req, httplib::Response& res);
   void handle_metrics(const httplib::Request& req, httplib::Response& res);
   void handle_events(const httplib::Request& req, httplib::Response& res);
 
@@ -154,6 +157,8 @@ void ApiServer::Impl::configure(RequestServer& svr, bool http) {
   svr.Get("/v1/participants", [this](const auto& req, auto& res) { handle_participants(req, res); });
   svr.Get("/v1/events", [this](const auto& req, auto& res) { handle_events(req, res); });
   svr.Get("/healthz", [this](const auto& req, auto& res) { handle_health(req, res); });
+  svr.Get("/", [this](const auto& req, auto& res) { handle_page(req, res); });
+  svr.Get("/openapi.yaml", [this](const auto& req, auto& res) { handle_spec(req, res); });
   svr.Get("/metrics", [this](const auto& req, auto& res) { handle_metrics(req, res); });
 
   // Any other method: 405 where the path exists (so a client learns it is
@@ -368,6 +373,26 @@ void ApiServer::Impl::handle_participants(const httplib::Request& req, httplib::
   for (const auto& p : status.participants())
     if (filter.matches(p)) list.push_back(model::to_json(p));
   send_json(res, 200, {{"participants", std::move(list)}});
+}
+
+void ApiServer::Impl::handle_page(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/", req.params, {})) return send_error(res, 400, *err);
+  // The page runs its own inline script and style and talks to this origin only;
+  // nothing else may load into it, and no other site may frame it.
+  res.set_header("Content-Security-Policy",
+                 "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; connect-src 'self'; "
+                 "frame-ancestors 'none'; base-uri 'none'; form-action 'none'");
+  res.set_header("X-Content-Type-Options", "nosniff");
+  res.set_header("Referrer-Policy", "no-referrer");
+  res.set_header("Cache-Control", "no-cache");
+  res.set_content(std::string(embedded::web_page), "text/html; charset=utf-8");
+}
+
+void ApiServer::Impl::handle_spec(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/openapi.yaml", req.params, {})) return send_error(res, 400, *err);
+  res.set_header("X-Content-Type-Options", "nosniff");
+  res.set_header("Cache-Control", "no-cache");
+  res.set_content(std::string(embedded::openapi_yaml), "application/yaml");
 }
 
 void ApiServer::Impl::handle_health(const httplib::Request& req, httplib::Response& res) {
