@@ -83,8 +83,8 @@ const Command kDescribeCommand = {
     "without opening them (exit 1). --json prints the daemon's document (extrinsics and\n"
     "presets too).",
     {
-        {"json", 0, nullptr, "print the description's JSON document"},
-        {"timeout", 0, "S", "wait at most S seconds for the description (default 35)"},
+        {"json", 'j', nullptr, "print the description's JSON document"},
+        {"timeout", 't', "S", "wait at most S seconds for the description (default 35)"},
     },
     run,
 };

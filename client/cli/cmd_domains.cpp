@@ -42,7 +42,8 @@ const Command kDomainsCommand = {
     "Show each DDS domain the daemon watches: its state, how many devices it has, how many\n"
     "device-info messages it took and rejected (by reason), and the daemon's participant.",
     {
-        {"json", 0, nullptr, "print JSON as the API gives it: {\"domains\": [...]}"},
+        {"json", 'j', nullptr, "print JSON as the API gives it: {\"domains\": [...]}"},
+        kNoHeadersOption,
     },
     run,
 };

@@ -1,4 +1,4 @@
-// rs-discover get: one device, by id (or, failing that, by serial or topic-root).
+// rs-discover get: devices by id (or, failing that, by serial or topic-root).
 #include "common.hpp"
 
 #include <nlohmann/json.hpp>
@@ -13,24 +13,42 @@ void row(const char* key, const std::string& value) {
   std::printf("%-14s%s\n", (std::string(key) + ":").c_str(), value.c_str());
 }
 
+void show(const rsdiscovery::Device& d);
+
 int run(const ParsedArgs& args) {
-  if (args.positional.size() != 1) throw UsageError("give exactly one device ID");
-  const std::string& key = args.positional[0];
+  if (args.positional.empty()) throw UsageError("give one or more device IDs");
   auto client = make_client(args);
-  // The daemon looks the key up (id, serial or topic-root), waiting for its complete
+  // The daemon looks each key up (id, serial or topic-root), waiting for its complete
   // table unless told not to; a key of several devices is an Error listing their ids.
-  auto device = client.find_device(key);
-  if (!device) {
-    std::fprintf(stderr, "rs-discover: no device '%s' (ids are listed by 'rs-discover list -q')\n",
-                 key.c_str());
-    return kNotFound;
+  // Every key is looked up; those not found are named and make the exit status 1.
+  std::vector<rsdiscovery::Device> found;
+  int status = kOk;
+  for (const auto& key : args.positional) {
+    auto device = client.find_device(key);
+    if (!device) {
+      std::fprintf(stderr, "rs-discover: no device '%s' (ids are listed by 'rs-discover list -q')\n", key.c_str());
+      status = kNotFound;
+      continue;
+    }
+    found.push_back(std::move(*device));
   }
-  const auto& d = *device;
-  auto doc = nlohmann::json::parse(d.json);
   if (args.has("json")) {
-    std::printf("%s\n", doc.dump(output().color ? 2 : -1).c_str());
-    return kOk;
+    // One document for one ID, as before; an array for several.
+    nlohmann::json out = nlohmann::json::array();
+    for (const auto& d : found) out.push_back(nlohmann::json::parse(d.json));
+    if (args.positional.size() == 1 && found.size() == 1) out = out[0];
+    if (!found.empty() || args.positional.size() > 1) std::printf("%s\n", out.dump(output().color ? 2 : -1).c_str());
+    return status;
   }
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    if (i) std::printf("\n");
+    show(found[i]);
+  }
+  return status;
+}
+
+void show(const rsdiscovery::Device& d) {
+  const auto doc = nlohmann::json::parse(d.json);
   row("ID", d.id);
   row("Name", d.name);
   row("Serial", d.serial);
@@ -60,7 +78,6 @@ int run(const ParsedArgs& args) {
       "fw-version", "recovery", "warnings", "server", "usb", "first-seen", "last-seen"};
   for (const auto& [k, v] : doc.items())
     if (!shown.count(k)) row(k.c_str(), v.is_string() ? v.get<std::string>() : v.dump());
-  return kOk;
 }
 
 }  // namespace
@@ -68,13 +85,15 @@ int run(const ParsedArgs& args) {
 const Command kGetCommand = {
     "get",
     "show one camera",
-    "get [--json] [--no-wait-complete | --complete-timeout S] ID",
-    "Show one camera: every field the daemon has for it. ID is the id that 'rs-discover list -q'\n"
-    "prints; a serial number or a topic-root that names one camera only works too.\n"
+    "get [--json] [--no-wait-complete | --complete-timeout S] ID...",
+    "Show cameras: every field the daemon has for each. ID is the id that 'rs-discover list -q'\n"
+    "prints; a serial number or a topic-root that names one camera only works too. With\n"
+    "several IDs, --json prints an array; an ID not found is named on stderr (exit status 1)\n"
+    "and the others are still shown.\n"
     "A camera not (yet) in the table is waited for while the daemon's first discovery runs\n"
     "(up to 5 s after it starts, --complete-timeout), unless --no-wait-complete is given.",
     {
-        {"json", 0, nullptr, "print the device's JSON document"},
+        {"json", 'j', nullptr, "print the device's JSON document (an array of them for several IDs)"},
         kNoWaitCompleteOption,
         kCompleteTimeoutOption,
     },

@@ -31,7 +31,7 @@ const Command kHealthCommand = {
     "status is 0 when it reports ok, 1 when it answers but is not ok, 3 when it cannot be\n"
     "reached.",
     {
-        {"json", 0, nullptr, "print the /healthz JSON"},
+        {"json", 'j', nullptr, "print the /healthz JSON"},
     },
     run,
 };

@@ -9,6 +9,7 @@ namespace {
 int run(const ParsedArgs& args) {
   if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
   auto filter = filter_from(args);
+  if (args.has("format")) format_device(args.get("format"), rsdiscovery::Device{});  // a bad template: exit 2 now
   int wait = args.get_int("wait", 0, 0, 100000);
   double timeout = args.get_seconds("timeout", 10);
   if (args.has("timeout") && !args.has("wait")) throw UsageError("--timeout goes with --wait");
@@ -60,6 +61,10 @@ int run(const ParsedArgs& args) {
     for (const auto& d : devices) std::printf("%s\n", d.id.c_str());
     return kOk;
   }
+  if (args.has("format")) {
+    for (const auto& d : devices) std::printf("%s\n", format_device(args.get("format"), d).c_str());
+    return kOk;
+  }
   bool wide = args.has("wide");
   std::vector<std::string> headers = {"NAME", "SERIAL", "SOURCE", "DOMAIN/PORT", "ADDRESS", "STATE", "AGE"};
   if (wide) headers.insert(headers.end(), {"PRODUCT-ID", "FW", "ID"});
@@ -85,23 +90,33 @@ int run(const ParsedArgs& args) {
 const Command kListCommand = {
     "list",
     "list the cameras the daemon knows now",
-    "list [--json | -q | -w] [--domain N] [--product-line LINE] [--source dds|usb] [--wait N [--timeout S]]\n"
+    "list [--json | -q | -w | --format TEMPLATE] [--no-headers] [-d N]... [-p LINE] [-s dds|usb]\n"
+    "       [--serial SERIAL] [-n TEXT] [-a ADDR] [--wait N [--timeout S]]\n"
     "       [--no-wait-complete | --complete-timeout S]",
     "List the cameras rs-discoveryd knows now: one line each, with where it is (DDS domain or\n"
     "USB port), its network address and how long it has been seen. With --wait, first wait\n"
     "until at least N cameras (that match the filters) are present.\n"
     "In the first seconds after the daemon starts its table is not complete yet; list waits\n"
     "for it (up to 5 s, --complete-timeout), unless --no-wait-complete is given. An answer\n"
-    "taken before it is complete comes with a warning on stderr.",
+    "taken before it is complete comes with a warning on stderr.\n"
+    "--format prints one line per camera from a template of its fields, for example\n"
+    "  rs-discover list --format '{serial}\\t{name}\\t{fw-version}'\n"
+    "with any key of the camera's JSON document, or {state}, {location}, {address},\n"
+    "{sources}, {age} as the table shows them.",
     {
-        {"domain", 0, "N", "only devices on DDS domain N"},
-        {"product-line", 0, "LINE", "only devices of this product line (D400, D500, ...)"},
-        {"source", 0, "SOURCE", "only devices seen this way: dds or usb"},
-        {"json", 0, nullptr, "print JSON: {\"complete\": true, \"devices\": [...], \"generation\": N}, as the API gives it"},
+        kDomainOption,
+        kProductLineOption,
+        kSourceOption,
+        kSerialOption,
+        kNameOption,
+        kAddressOption,
+        {"json", 'j', nullptr, "print JSON: {\"complete\": true, \"devices\": [...], \"generation\": N}, as the API gives it"},
         {"quiet", 'q', nullptr, "print only the device ids, one a line"},
         {"wide", 'w', nullptr, "add the PRODUCT-ID, FW and ID columns"},
+        {"format", 'f', "TEMPLATE", "print each camera as TEMPLATE says ({name}, {serial}, ...; see above)"},
+        kNoHeadersOption,
         {"wait", 0, "N", "wait until at least N matching devices are present"},
-        {"timeout", 0, "S", "give up waiting after S seconds (default 10; exit status 1)"},
+        {"timeout", 't', "S", "give up waiting after S seconds (default 10; exit status 1)"},
         kNoWaitCompleteOption,
         kCompleteTimeoutOption,
     },

@@ -47,7 +47,7 @@ int run(const ParsedArgs& args) {
 const Command kParticipantsCommand = {
     "participants",
     "show who is on the DDS network (cameras, programs, tools)",
-    "participants [--domain N] [--all] [--json]",
+    "participants [-d N] [-a] [--json | --no-headers]",
     "Show every DDS participant the daemon hears on its domains: realdds cameras and\n"
     "servers (Fast DDS), librealsense and ROS programs, other DDS tools. For each: its\n"
     "name (and process and host, when it says), DDS vendor, addresses, how many cameras\n"
@@ -56,9 +56,10 @@ const Command kParticipantsCommand = {
     "firewall, multicast) or the server is at fault. The daemon's own participant is\n"
     "not listed. Without --all, only those alive now.",
     {
-        {"domain", 0, "N", "only participants on DDS domain N"},
-        {"all", 0, nullptr, "also those gone (the latest 256 per domain)"},
-        {"json", 0, nullptr, "print JSON as the API gives it: {\"participants\": [...]}"},
+        {"domain", 'd', "N", "only participants on DDS domain N"},
+        {"all", 'a', nullptr, "also those gone (the latest 256 per domain)"},
+        {"json", 'j', nullptr, "print JSON as the API gives it: {\"participants\": [...]}"},
+        kNoHeadersOption,
     },
     run,
 };

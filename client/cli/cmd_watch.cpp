@@ -24,18 +24,39 @@ const char* event_color(rsdiscovery::Event::Type t) {
   return nullptr;
 }
 
+// Local date and time to the millisecond: a watch runs for days, and its lines
+// end up in logs next to journalctl's.
 std::string clock_now() {
   timeval tv{};
   gettimeofday(&tv, nullptr);
   std::tm tm{};
   localtime_r(&tv.tv_sec, &tm);
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%02d:%02d:%02d.%03d", tm.tm_hour, tm.tm_min, tm.tm_sec,
-                static_cast<int>(tv.tv_usec / 1000));
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%04d-%02d-%02d %02d:%02d:%02d.%03d", tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday,
+                tm.tm_hour, tm.tm_min, tm.tm_sec, static_cast<int>(tv.tv_usec / 1000));
   return buf;
 }
 
-void print_event(const rsdiscovery::Event& e, bool json) {
+// What a `changed` event changed, from the device as last seen: "fw-version
+// 5.16.0.1 -> 5.16.1.0, addresses [..] -> [..]". The times seen are left out.
+std::string changes(const std::string& before_json, const std::string& after_json) {
+  const auto before = nlohmann::json::parse(before_json, nullptr, false);
+  const auto after = nlohmann::json::parse(after_json, nullptr, false);
+  if (!before.is_object() || !after.is_object()) return "";
+  const auto text = [](const nlohmann::json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); };
+  std::vector<std::string> parts;
+  for (const auto& [key, value] : after.items()) {
+    if (key == "first-seen" || key == "last-seen") continue;
+    const auto old = before.find(key);
+    if (old == before.end()) parts.push_back(key + " " + text(value) + " (new)");
+    else if (*old != value) parts.push_back(key + " " + text(*old) + " \u2192 " + text(value));
+  }
+  for (const auto& [key, value] : before.items())
+    if (!after.contains(key) && key != "first-seen" && key != "last-seen") parts.push_back(key + " (gone)");
+  return join(parts, ", ");
+}
+
+void print_event(const rsdiscovery::Event& e, bool json, const std::string* before) {
   const auto& d = e.device;
   std::string line;
   if (json) {
@@ -55,6 +76,10 @@ void print_event(const rsdiscovery::Event& e, bool json) {
     if (d.server && !d.server->addresses.empty()) line += "  " + device_addresses(d);
     if (d.recovery) line += "  " + paint("(recovery)", color::yellow);
     if (e.synthetic) line += "  " + paint("(re-listed)", color::dim);
+    if (e.type == rsdiscovery::Event::Type::changed && before) {
+      const std::string what = changes(*before, d.json);
+      if (!what.empty()) line += "  " + paint(what, color::yellow);
+    }
   }
   line += '\n';
   std::fputs(line.c_str(), stdout);
@@ -65,6 +90,15 @@ int run(const ParsedArgs& args) {
   if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
   rsdiscovery::WatchOptions options;
   options.filter = filter_from(args);
+  // Feedback on stderr while the daemon is away (stdout stays events only); the
+  // first connection is no news.
+  options.on_status = [lost = false](const rsdiscovery::WatchStatus& s) mutable {
+    if (s.connected && !lost) return;
+    lost = !s.connected;
+    std::fprintf(stderr, "rs-discover: %s %s\n", clock_now().c_str(),
+                 s.connected ? ("connected again" + (s.message.empty() ? "" : ": " + s.message)).c_str()
+                             : ("lost the daemon, reconnecting" + (s.message.empty() ? "" : " (" + s.message + ")")).c_str());
+  };
   options.initial = args.has("initial");
   if (args.has("last-event-id")) {
     const std::string text = args.get("last-event-id");
@@ -87,6 +121,10 @@ int run(const ParsedArgs& args) {
 
   auto client = make_client(args);
   rsdiscovery::Watch watch = client.watch(options);
+  // The devices as last seen, so a `changed` line can say what changed: the watch's
+  // own starting view, then every event.
+  std::map<std::string, std::string> last;
+  for (const auto& d : watch.devices()) last[d.id] = d.json;
   std::atomic<bool> interrupted{false}, finishing{false};
   std::thread signals([&] {
     int sig = 0;
@@ -119,7 +157,10 @@ int run(const ParsedArgs& args) {
       e = watch.next();
     }
     if (!e) break;  // stopped
-    print_event(*e, json);
+    const auto it = last.find(e->device.id);
+    print_event(*e, json, it == last.end() ? nullptr : &it->second);
+    if (e->type == rsdiscovery::Event::Type::removed) last.erase(e->device.id);
+    else last[e->device.id] = e->device.json;
     ++seen;
   }
   watch.stop();
@@ -136,19 +177,24 @@ int run(const ParsedArgs& args) {
 const Command kWatchCommand = {
     "watch",
     "print the changes as they happen",
-    "watch [--json] [--initial] [--domain N] [--product-line LINE] [--source dds|usb] [--count N] [--timeout S]",
-    "Print one line per change of the device table (added, changed, removed) until interrupted.\n"
-    "The stream resumes by itself when the daemon restarts; what changed meanwhile is\n"
-    "reported too (marked as re-listed).",
+    "watch [--json] [--initial] [-d N]... [-p LINE] [-s dds|usb] [--serial SERIAL] [-n TEXT] [-a ADDR]\n"
+    "       [-c N] [-t S]",
+    "Print one line per change of the device table (added, changed, removed) until interrupted,\n"
+    "with the local date and time; a 'changed' line says what changed (fw-version 5.16.0.1 ->\n"
+    "5.16.1.0). The stream resumes by itself when the daemon restarts (said on stderr); what\n"
+    "changed meanwhile is reported too (marked as re-listed).",
     {
-        {"json", 0, nullptr,
+        {"json", 'j', nullptr,
          "one JSON object a line: {\"event\", \"id\", \"synthetic\", \"device\"}"},
-        {"initial", 0, nullptr, "first report every device present now as added"},
-        {"domain", 0, "N", "only devices on DDS domain N"},
-        {"product-line", 0, "LINE", "only devices of this product line (D400, D500, ...)"},
-        {"source", 0, "SOURCE", "only devices seen this way: dds or usb"},
-        {"count", 0, "N", "exit after N events"},
-        {"timeout", 0, "S", "exit after S seconds (status 1 if --count events did not come)"},
+        {"initial", 'i', nullptr, "first report every device present now as added"},
+        kDomainOption,
+        kProductLineOption,
+        kSourceOption,
+        kSerialOption,
+        kNameOption,
+        kAddressOption,
+        {"count", 'c', "N", "exit after N events"},
+        {"timeout", 't', "S", "exit after S seconds (status 1 if --count events did not come)"},
         {"last-event-id", 0, "ID", "resume after this event id (from an earlier --json run)"},
     },
     run,

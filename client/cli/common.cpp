@@ -1,6 +1,9 @@
 // The shared part of rs-discover: option parsing, errors, tables, colour, times.
 #include "common.hpp"
 
+#include <nlohmann/json.hpp>
+
+#include <getopt.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -18,6 +21,7 @@ const std::vector<OptionSpec> kCommonOptions = {
      "else the daemon's default socket)"},
     {"color", 0, "WHEN", "colour the output: auto (on a terminal), always, never"},
     {"help", 'h', nullptr, "show this help and exit"},
+    {"version", 'V', nullptr, "show rs-discover's version and exit"},
 };
 
 Output& output() {
@@ -43,6 +47,18 @@ int ParsedArgs::get_int(const std::string& name, int fallback, int min, int max)
   return static_cast<int>(v);
 }
 
+std::vector<int> ParsedArgs::get_ints(const std::string& name, int min, int max) const {
+  std::vector<int> out;
+  auto it = all.find(name);
+  if (it == all.end()) return out;
+  for (const auto& v : it->second) {
+    ParsedArgs one;
+    one.values[name] = v;
+    out.push_back(one.get_int(name, 0, min, max));
+  }
+  return out;
+}
+
 double ParsedArgs::get_seconds(const std::string& name, double fallback) const {
   auto it = values.find(name);
   if (it == values.end()) return fallback;
@@ -55,52 +71,70 @@ double ParsedArgs::get_seconds(const std::string& name, double fallback) const {
 }
 
 ParsedArgs parse_args(const std::vector<std::string>& args, const std::vector<OptionSpec>& specs) {
-  ParsedArgs out;
-  auto find = [&](const std::string& name, char short_name) -> const OptionSpec* {
-    for (const auto* list : {&specs, &kCommonOptions})
-      for (const auto& s : *list)
-        if (short_name ? s.short_name == short_name : name == s.name) return &s;
+  // glibc's getopt_long, so the command line reads as every GNU tool's does:
+  // bundled short options (-qw), attached values (-d121, --domain=121), unique
+  // prefixes of long options (--prod), "--" ending the options, options after
+  // operands. A repeated option keeps every value (ParsedArgs::all).
+  std::vector<const OptionSpec*> known;
+  for (const auto* list : {&specs, &kCommonOptions})
+    for (const auto& s : *list) known.push_back(&s);
+  std::vector<option> longopts;
+  std::string shortopts = ":";  // ':' first: a missing value is reported as ':', not '?'
+  constexpr int kLongOnly = 0x100;  // getopt's value of an option by its index, past any char
+  for (std::size_t i = 0; i < known.size(); ++i) {
+    const int has_arg = known[i]->value ? required_argument : no_argument;
+    longopts.push_back({known[i]->name, has_arg, nullptr, kLongOnly + static_cast<int>(i)});
+    if (known[i]->short_name) shortopts += std::string(1, known[i]->short_name) + (known[i]->value ? ":" : "");
+  }
+  longopts.push_back({nullptr, 0, nullptr, 0});
+
+  std::vector<std::string> storage;
+  storage.reserve(args.size() + 1);
+  storage.push_back("rs-discover");
+  storage.insert(storage.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : storage) argv.push_back(a.data());
+  argv.push_back(nullptr);
+
+  const auto by_short = [&](int c) -> const OptionSpec* {
+    for (const auto* s : known)
+      if (s->short_name == c) return s;
     return nullptr;
   };
-  bool only_positional = false;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (only_positional || a.size() < 2 || a[0] != '-') {
-      out.positional.push_back(a);
-      continue;
+  ParsedArgs out;
+  optind = 0;  // glibc: start afresh (tests and callers may parse more than once)
+  opterr = 0;  // the errors below say more than getopt's own
+  const int argc = static_cast<int>(storage.size());
+  for (;;) {
+    int index = -1;
+    const int c = getopt_long(argc, argv.data(), shortopts.c_str(), longopts.data(), &index);
+    if (c == -1) break;
+    // getopt permutes argv (operands move to the end): read it, not `storage`.
+    const std::string given = optind - 1 < argc ? argv[static_cast<std::size_t>(optind - 1)] : "";
+    if (c == '?') {
+      if (optopt && optopt < kLongOnly) throw UsageError(std::string("unknown option '-") + char(optopt) + "'");
+      // A long option that is unknown, or a prefix of several.
+      std::string name = given.substr(0, given.find('='));
+      std::vector<std::string> matches;
+      for (const auto* s : known)
+        if (name.size() > 2 && std::string(s->name).starts_with(name.substr(2))) matches.push_back("--" + std::string(s->name));
+      if (matches.size() > 1) throw UsageError("option '" + name + "' is ambiguous: " + join(matches, ", "));
+      if (name.starts_with("--") && given.find('=') != std::string::npos && matches.size() == 1)
+        throw UsageError(matches[0] + " takes no value");
+      throw UsageError("unknown option '" + name + "'");
     }
-    if (a == "--") {
-      only_positional = true;
-      continue;
+    if (c == ':') {
+      const OptionSpec* s = optopt >= kLongOnly ? known[static_cast<std::size_t>(optopt - kLongOnly)] : by_short(optopt);
+      throw UsageError("--" + std::string(s ? s->name : "?") + " needs a value (" + (s ? s->value : "") + ")");
     }
-    const OptionSpec* spec = nullptr;
-    std::optional<std::string> inline_value;
-    std::string shown = a;
-    if (a[1] == '-') {
-      std::string name = a.substr(2);
-      if (auto eq = name.find('='); eq != std::string::npos) {
-        inline_value = name.substr(eq + 1);
-        name.resize(eq);
-        shown = "--" + name;
-      }
-      spec = find(name, 0);
-    } else {
-      if (a.size() != 2) throw UsageError("unknown option '" + a + "' (write short options apart)");
-      spec = find("", a[1]);
-    }
-    if (!spec) throw UsageError("unknown option '" + shown + "'");
-    if (!spec->value) {
-      if (inline_value) throw UsageError("--" + std::string(spec->name) + " takes no value");
-      out.values[spec->name] = "1";
-      continue;
-    }
-    if (inline_value) {
-      out.values[spec->name] = *inline_value;
-    } else {
-      if (i + 1 >= args.size()) throw UsageError(shown + " needs a value (" + spec->value + ")");
-      out.values[spec->name] = args[++i];
-    }
+    const OptionSpec* s = c >= kLongOnly ? known[static_cast<std::size_t>(c - kLongOnly)] : by_short(c);
+    if (!s) throw UsageError("unknown option '" + given + "'");
+    const std::string value = s->value ? optarg : "1";
+    out.values[s->name] = value;
+    out.all[s->name].push_back(value);
   }
+  for (int i = optind; i < argc; ++i) out.positional.push_back(argv[static_cast<std::size_t>(i)]);
+  output().headers = !out.has("no-headers");
   std::string when = out.get("color", "auto");
   if (when == "always") {
     output().color = true;
@@ -156,7 +190,10 @@ rsdiscovery::Client make_client(const ParsedArgs& args) {
 
 rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args) {
   rsdiscovery::DeviceFilter f;
-  if (args.has("domain")) f.domain = args.get_int("domain", 0, 0, 232);
+  f.domains = args.get_ints("domain", 0, 232);
+  f.serial = args.get("serial");
+  f.name = args.get("name");
+  f.address = args.get("address");
   f.product_line = args.get("product-line");
   f.source = args.get("source");
   if (!f.source.empty() && f.source != "dds" && f.source != "usb")
@@ -301,6 +338,43 @@ std::size_t width(const std::string& s) {
 }
 }  // namespace
 
+std::string format_device(const std::string& tmpl, const rsdiscovery::Device& d) {
+  const auto doc = nlohmann::json::parse(d.json, nullptr, false);
+  const auto field = [&](const std::string& key) -> std::string {
+    if (key == "state") return device_state(d);
+    if (key == "location") return device_location(d);
+    if (key == "address") return device_addresses(d);
+    if (key == "sources") return device_sources(d);
+    if (key == "age") return age_since(d.first_seen);
+    if (!doc.is_object()) return "";
+    const auto it = doc.find(key);
+    if (it == doc.end() || it->is_null()) return "";
+    return it->is_string() ? it->get<std::string>() : it->dump();
+  };
+  std::string out;
+  for (std::size_t i = 0; i < tmpl.size(); ++i) {
+    const char c = tmpl[i];
+    const char next = i + 1 < tmpl.size() ? tmpl[i + 1] : '\0';
+    if ((c == '{' && next == '{') || (c == '}' && next == '}')) {
+      out += c;
+      ++i;
+    } else if (c == '{') {
+      const auto close = tmpl.find('}', i);
+      if (close == std::string::npos) throw UsageError("--format: '{' at " + std::to_string(i + 1) + " is never closed");
+      out += field(tmpl.substr(i + 1, close - i - 1));
+      i = close;
+    } else if (c == '}') {
+      throw UsageError("--format: '}' at " + std::to_string(i + 1) + " closes nothing (write }} for a brace)");
+    } else if (c == '\\' && (next == 'n' || next == 't')) {
+      out += next == 'n' ? '\n' : '\t';
+      ++i;
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
 void Table::print(std::FILE* out) const {
   std::vector<std::size_t> w(headers_.size());
   for (std::size_t i = 0; i < headers_.size(); ++i) w[i] = width(headers_[i]);
@@ -318,7 +392,7 @@ void Table::print(std::FILE* out) const {
     text += '\n';
     std::fputs(text.c_str(), out);
   };
-  line(headers_, nullptr, color::bold);
+  if (output().headers) line(headers_, nullptr, color::bold);
   for (std::size_t r = 0; r < rows_.size(); ++r) line(rows_[r], &colors_[r], nullptr);
 }
 

@@ -45,13 +45,27 @@ inline constexpr OptionSpec kCompleteTimeoutOption = {
     "complete-timeout", 0, "S",
     "wait at most S seconds (default 5) for the daemon's first discovery to end"};
 
+// The device filters of list and watch (the daemon applies them: GET /v1/devices).
+inline constexpr OptionSpec kDomainOption = {"domain", 'd', "N", "only devices on DDS domain N (repeat for several)"};
+inline constexpr OptionSpec kProductLineOption = {"product-line", 'p', "LINE",
+                                                  "only devices of this product line (D400, D500, ...)"};
+inline constexpr OptionSpec kSourceOption = {"source", 's', "SOURCE", "only devices seen this way: dds or usb"};
+inline constexpr OptionSpec kSerialOption = {"serial", 0, "SERIAL", "only the device with this serial number"};
+inline constexpr OptionSpec kNameOption = {"name", 'n', "TEXT", "only devices whose name contains TEXT (any case)"};
+inline constexpr OptionSpec kAddressOption = {"address", 'a', "ADDR",
+                                              "only network cameras whose server has this address"};
+inline constexpr OptionSpec kNoHeadersOption = {"no-headers", 'H', nullptr, "print the table without its header line"};
+
 struct ParsedArgs {
-  std::map<std::string, std::string> values;  // flags map to "1"
+  std::map<std::string, std::string> values;  // the last value of each option; flags map to "1"
+  std::map<std::string, std::vector<std::string>> all;  // every value, in order (repeated options)
   std::vector<std::string> positional;
   bool has(const std::string& name) const { return values.count(name) > 0; }
   std::string get(const std::string& name, const std::string& fallback = "") const;
   int get_int(const std::string& name, int fallback, int min, int max) const;
   double get_seconds(const std::string& name, double fallback) const;
+  // Every value of a repeated whole-number option, each checked as get_int does.
+  std::vector<int> get_ints(const std::string& name, int min, int max) const;
 };
 
 // Parses `args` (after the subcommand's name) against `specs` plus the common ones.
@@ -71,6 +85,7 @@ void print_help(const Command& command, std::FILE* out);
 // Output context, set from the common options.
 struct Output {
   bool color = false;
+  bool headers = true;  // --no-headers turns a table's header line off
 };
 Output& output();
 
@@ -103,6 +118,13 @@ std::string device_sources(const rsdiscovery::Device& d);
 // "5s", "3m", "2h", "4d" since an ISO 8601 UTC time; "-" when unreadable.
 std::string age_since(const std::string& iso8601);
 std::optional<double> parse_iso8601(const std::string& text);  // Unix seconds
+
+// --format: TEMPLATE with {field} replaced by the device's field: any key of its
+// document ({name}, {serial}, {fw-version}, {topic-root} ...; strings bare, other
+// values as JSON, absent ones empty) or one the table shows ({state}, {location},
+// {address}, {sources}, {age}). {{ and }} are braces; \t and \n a tab and a line
+// break. Throws UsageError for a brace left open.
+std::string format_device(const std::string& tmpl, const rsdiscovery::Device& d);
 
 // A table like `docker ps`: columns padded to their widest cell, two spaces apart.
 class Table {

@@ -19,7 +19,7 @@ void usage(std::FILE* out) {
       out);
   for (const Command* c : kCommands) std::fprintf(out, "  %-12s %s\n", c->name, c->summary);
   std::fputs(
-      "\nRun 'rs-discover COMMAND --help' for a command's options.\n"
+      "\nRun 'rs-discover COMMAND --help' for a command's options; -V, --version prints the version.\n"
       "The daemon is reached at --endpoint, else $RS_DISCOVERY_ENDPOINT, else its default\n"
       "socket ($RUNTIME_DIRECTORY/api.sock, /run/rs-discoveryd/api.sock as root,\n"
       "$XDG_RUNTIME_DIR/rs-discoveryd.sock otherwise, falling back to the system\n"
@@ -37,17 +37,24 @@ int main(int argc, char** argv) {
   std::vector<std::string> leading;
   while (!args.empty() && args[0].size() > 1 && args[0][0] == '-') {
     const std::string a = args[0];
-    if (a == "-h" || a == "--help") {
+    // Whole or a unique prefix, as getopt takes them after the command.
+    const auto is = [&](const char* name) { return a.size() > 2 && std::string(name).starts_with(a); };
+    if (a == "-h" || is("--help")) {
       usage(stdout);
       return kOk;
     }
-    if (a == "--version") {
+    if (a == "-V" || is("--version")) {
       std::printf("rs-discover %s\n", rsdiscovery::version());
       return kOk;
     }
     leading.push_back(a);
     args.erase(args.begin());
-    bool needs_value = (a == "--endpoint" || a == "--color");
+    // --endpoint and --color take a value: as the next argument unless attached
+    // (--endpoint=..., -- a unique prefix such as --end counts too).
+    const auto takes_value = [&](const std::string& name) {
+      return a.size() > 3 && a.find('=') == std::string::npos && name.starts_with(a.substr(2));
+    };
+    bool needs_value = a.starts_with("--") && (takes_value("endpoint") || takes_value("color"));
     if (needs_value) {
       if (args.empty()) {
         std::fprintf(stderr, "rs-discover: %s needs a value\n", a.c_str());
@@ -78,11 +85,17 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "rs-discover: unknown command '%s' (try 'rs-discover --help')\n", name.c_str());
     return kUsage;
   }
-  args.insert(args.end(), leading.begin(), leading.end());
+  // Before the command's own: a value-taking option at the end (list --domain) must
+  // not take the common ones as its value.
+  args.insert(args.begin(), leading.begin(), leading.end());
   try {
     ParsedArgs parsed = parse_args(args, command->options);
     if (parsed.has("help")) {
       print_help(*command, stdout);
+      return kOk;
+    }
+    if (parsed.has("version")) {
+      std::printf("rs-discover %s\n", rsdiscovery::version());
       return kOk;
     }
     return command->run(parsed);

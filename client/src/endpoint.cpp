@@ -35,8 +35,11 @@ Endpoint Endpoint::parse(const std::string& text) {
     return ep;
   }
   if (text.rfind("https://", 0) == 0) bad(text, "https is not supported; the daemon serves plain HTTP");
-  if (text.rfind("http://", 0) != 0) bad(text, "unknown scheme");
-  std::string rest = text.substr(7);
+  // host, host:port, [v6]:port with no scheme: the daemon's HTTP, on its default
+  // port when none is given; http://host keeps URL rules (port 80).
+  const bool bare = text.find("://") == std::string::npos;
+  if (!bare && text.rfind("http://", 0) != 0) bad(text, "unknown scheme");
+  std::string rest = bare ? text : text.substr(7);
   if (auto slash = rest.find('/'); slash != std::string::npos) {
     if (rest.find_first_not_of('/', slash) != std::string::npos)
       bad(text, "a path after host:port is not supported");
@@ -59,7 +62,7 @@ Endpoint Endpoint::parse(const std::string& text) {
   if (host.empty()) bad(text, "no host");
   ep.kind = Kind::http;
   ep.host = host;
-  ep.port = 80;
+  ep.port = bare ? rsd::model::kDefaultHttpPort : 80;
   if (!port.empty()) {
     if (port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos)
       bad(text, "the port is not a number");
@@ -83,7 +86,13 @@ Endpoint Endpoint::default_socket() {
 }
 
 Endpoint Endpoint::from_environment() {
-  if (const char* text = env("RS_DISCOVERY_ENDPOINT")) return parse(text);
+  if (const char* text = env("RS_DISCOVERY_ENDPOINT")) {
+    try {
+      return parse(text);
+    } catch (const Error& e) {  // say where the bad value came from
+      throw Error(e.code(), std::string("RS_DISCOVERY_ENDPOINT: ") + e.what());
+    }
+  }
   return default_socket();
 }
 

@@ -89,6 +89,9 @@ class Transport {
   // request timeout (a description the daemon fetches first may take 30 s).
   Reply get(const std::string& path, std::optional<std::chrono::milliseconds> timeout = std::nullopt,
             const std::string& if_none_match = "");
+  // One GET, not asked again after a 503 (get() asks again as Retry-After says).
+  Reply get_once(const std::string& path, std::optional<std::chrono::milliseconds> timeout,
+                 const std::string& if_none_match);
   // GET and parse a JSON object (status 200), mapping 404/405 on an API path to
   // version_mismatch and other statuses to http_error.
   nlohmann::json get_json(const std::string& path);

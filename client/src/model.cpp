@@ -232,8 +232,12 @@ std::string devices_path(const DeviceFilter& filter) {
     sep = '&';
   };
   if (filter.domain) add("domain", std::to_string(*filter.domain));
+  for (int d : filter.domains) add("domain", std::to_string(d));
   if (!filter.product_line.empty()) add("product-line", filter.product_line);
   if (!filter.source.empty()) add("source", filter.source);
+  if (!filter.serial.empty()) add("serial", filter.serial);
+  if (!filter.name.empty()) add("name", filter.name);
+  if (!filter.address.empty()) add("address", filter.address);
   return path;
 }
 

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <thread>
 #include <cctype>
 #include <cerrno>
 #include <cstdlib>
@@ -359,6 +360,30 @@ std::string Transport::request_text(const std::string& path, const char* accept,
 
 Reply Transport::get(const std::string& path, std::optional<std::chrono::milliseconds> timeout,
                      const std::string& if_none_match) {
+  // A 503 with Retry-After is the daemon saying "busy, ask again then" (its
+  // connection limit, a participant being made anew): asked again as it says, for
+  // up to kBusyBudget in all, before the 503 is the caller's to handle.
+  constexpr auto kBusyBudget = std::chrono::seconds(10);
+  const auto busy_until = Clock::now() + kBusyBudget;
+  for (;;) {
+    Reply reply = get_once(path, timeout, if_none_match);
+    if (reply.status != 503 || reply.retry_after.empty()) return reply;
+    int seconds = 1;
+    try {
+      seconds = std::clamp(std::stoi(reply.retry_after), 1, 10);
+    } catch (const std::exception&) {  // not a number of seconds: once a second
+    }
+    const auto again = Clock::now() + std::chrono::seconds(seconds);
+    if (again > busy_until) return reply;
+    while (Clock::now() < again) {  // in slices, so cancel() is not kept waiting
+      if (cancelled_) throw Error(ErrorCode::cancelled, "cancelled");
+      std::this_thread::sleep_for(std::min<Clock::duration>(again - Clock::now(), std::chrono::milliseconds(50)));
+    }
+  }
+}
+
+Reply Transport::get_once(const std::string& path, std::optional<std::chrono::milliseconds> timeout,
+                          const std::string& if_none_match) {
   if (cancelled_) throw Error(ErrorCode::cancelled, "cancelled");
   const auto read_timeout = timeout.value_or(options_.request_timeout);
   std::vector<std::pair<std::string, std::string>> extra;

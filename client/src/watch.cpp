@@ -30,7 +30,7 @@ void WatchCore::start_pull() {
       queue_.push_back(std::move(e));
     }
     cv_.notify_all();
-  }, {}, {});
+  }, options_.on_status, {});
 }
 
 void WatchCore::start(Sink sink, StatusSink status, EndSink on_end) {

@@ -81,7 +81,7 @@ std::optional<std::string> check_params(std::string_view route, const QueryParam
 std::optional<std::string> parse_device_filter(const QueryParams& params, DeviceFilter& out,
                                                const std::set<std::string>& also_allowed) {
   std::set<std::string> allowed = also_allowed;
-  allowed.insert({"domain", "product-line", "source"});
+  allowed.insert({"domain", "product-line", "source", "serial", "name", "address"});
   if (auto err = check_params("this route", params, allowed)) return err;
   for (const auto& [key, value] : params) {
     if (key == "domain") {
@@ -95,6 +95,9 @@ std::optional<std::string> parse_device_filter(const QueryParams& params, Device
       auto source = model::parse_source(lower(value));
       if (!source) return "bad source '" + value + "': expected dds or usb";
       out.sources.insert(*source);
+    } else if (key == "serial" || key == "name" || key == "address") {
+      if (value.empty()) return "empty " + key;
+      (key == "serial" ? out.serials : key == "name" ? out.names : out.addresses).insert(lower(value));
     }
   }
   return std::nullopt;
@@ -130,6 +133,18 @@ bool DeviceFilter::matches(const nlohmann::json& doc) const {
   if (!sources.empty() &&
       std::none_of(sources.begin(), sources.end(), [&](model::Source s) { return device.seen_by(s); }))
     return false;
+  if (!serials.empty() && (!device.serial || !serials.contains(lower(*device.serial)))) return false;
+  if (!names.empty()) {
+    const std::string name = device.name ? lower(*device.name) : "";
+    if (std::none_of(names.begin(), names.end(), [&](const std::string& n) { return name.find(n) != std::string::npos; }))
+      return false;
+  }
+  if (!addresses.empty()) {
+    const std::vector<std::string> none;
+    const auto& mine = device.server && device.server->addresses ? *device.server->addresses : none;
+    if (std::none_of(mine.begin(), mine.end(), [&](const std::string& a) { return addresses.contains(lower(a)); }))
+      return false;
+  }
   return true;
 }
 

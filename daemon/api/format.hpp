@@ -35,13 +35,20 @@ std::string_view status_text(int status);
 
 // The one filter of the API, and so of every client (they pass theirs to the API and
 // never filter again). Repeating a key ORs its values (?domain=0&domain=1); different
-// keys AND. Values compare case-insensitively (product-line=d400, source=USB).
+// keys AND. Values compare case-insensitively (product-line=d400, source=USB); a
+// name matches when it is part of the device's name (name=d455).
 struct DeviceFilter {
   std::set<int> domains;
   std::set<std::string> product_lines;  // lower case
   std::set<model::Source> sources;
+  std::set<std::string> serials;    // lower case
+  std::set<std::string> names;      // lower case, matched as a part of the name
+  std::set<std::string> addresses;  // lower case, one of the server's addresses
 
-  bool empty() const { return domains.empty() && product_lines.empty() && sources.empty(); }
+  bool empty() const {
+    return domains.empty() && product_lines.empty() && sources.empty() && serials.empty() && names.empty() &&
+           addresses.empty();
+  }
   bool matches(const nlohmann::json& device) const;
 };
 
@@ -51,7 +58,7 @@ struct DeviceFilter {
 std::optional<std::string> check_params(std::string_view route, const QueryParams& params,
                                         const std::set<std::string>& allowed);
 
-// Parses the filter keys (domain, product-line, source); any other key must be
+// Parses the filter keys (domain, product-line, source, serial, name, address); any other key must be
 // in `also_allowed` (check_params). Returns the error message for a 400, or nothing.
 std::optional<std::string> parse_device_filter(const QueryParams& params, DeviceFilter& out,
                                                const std::set<std::string>& also_allowed = {});

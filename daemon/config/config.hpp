@@ -2,6 +2,8 @@
 // command-line flags (flags win), validated into one plain struct.
 #pragma once
 
+#include "rsd_model/socket_path.hpp"
+
 #include <cstddef>
 #include <optional>
 #include <stdexcept>
@@ -10,7 +12,7 @@
 
 namespace rsd {
 
-inline constexpr int kDefaultHttpPort = 8035;
+using model::kDefaultHttpPort;
 inline constexpr const char* kDefaultConfigFile = "/etc/rs-discoveryd/config.json";
 inline constexpr int kMaxDomain = 232;  // RTPS port mapping ends there
 

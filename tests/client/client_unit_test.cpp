@@ -45,7 +45,11 @@ TEST(Endpoint, ParsesHttpForms) {
   EXPECT_EQ(e.kind, Endpoint::Kind::http);
   EXPECT_EQ(e.host, "127.0.0.1");
   EXPECT_EQ(e.port, 8035);
-  EXPECT_EQ(Endpoint::parse("http://localhost/").port, 80);
+  EXPECT_EQ(Endpoint::parse("http://localhost/").port, 80);  // a URL: its rules
+  // host:port, or a bare host on the daemon's default port.
+  EXPECT_EQ(Endpoint::parse("camera-pc").to_string(), "http://camera-pc:8035");
+  EXPECT_EQ(Endpoint::parse("10.0.0.5:9000").to_string(), "http://10.0.0.5:9000");
+  EXPECT_EQ(Endpoint::parse("[::1]").to_string(), "http://[::1]:8035");
   auto v6 = Endpoint::parse("http://[::1]:9000");
   EXPECT_EQ(v6.host, "::1");
   EXPECT_EQ(v6.port, 9000);
@@ -100,6 +104,15 @@ TEST(Endpoint, DefaultFollowsTheDaemonsRule) {
   EXPECT_EQ(Endpoint::from_environment().to_string(), "http://127.0.0.1:9999");
   env.set("RS_DISCOVERY_ENDPOINT", "");
   EXPECT_EQ(Endpoint::from_environment().kind, Endpoint::Kind::unix_socket);
+  // A bad value names the variable it came from.
+  env.set("RS_DISCOVERY_ENDPOINT", "ftp://x");
+  try {
+    Endpoint::from_environment();
+    ADD_FAILURE() << "no error for a bad RS_DISCOVERY_ENDPOINT";
+  } catch (const rsdiscovery::Error& e) {
+    EXPECT_EQ(e.code(), rsdiscovery::ErrorCode::bad_endpoint);
+    EXPECT_EQ(std::string(e.what()).rfind("RS_DISCOVERY_ENDPOINT: bad endpoint 'ftp://x'", 0), 0u) << e.what();
+  }
 }
 
 // ---- SSE ------------------------------------------------------------------------------------
@@ -257,6 +270,12 @@ TEST(Filter, BuildsTheQueryWithEncoding) {
   f.product_line = "D4 00&x";
   f.source = "usb";
   EXPECT_EQ(detail::devices_path(f), "/v1/devices?domain=7&product-line=D4%2000%26x&source=usb");
+  DeviceFilter more;
+  more.domains = {1, 2};
+  more.serial = "ab12";
+  more.name = "D455 ";
+  more.address = "192.0.2.2";
+  EXPECT_EQ(detail::devices_path(more), "/v1/devices?domain=1&domain=2&serial=ab12&name=D455%20&address=192.0.2.2");
 }
 
 // ---- a scripted stand-in daemon ---------------------------------------------------------------

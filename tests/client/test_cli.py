@@ -233,7 +233,7 @@ def test_watch_lines_and_json(daemon, realdds_server, domain):
     assert human.returncode == 0, err
     lines = out.splitlines()
     assert len(lines) == 2
-    assert re.match(r"\d\d:\d\d:\d\d\.\d{3} added   dds-\d+-realsense\.D455_123622270703  Intel RealSense D455  "
+    assert re.match(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d{3} added   dds-\d+-realsense\.D455_123622270703  Intel RealSense D455  "
                     rf"serial 123622270703  domain {domain}", lines[0]), lines[0]
     assert " removed dds-" in lines[1]
     assert w.stop() == 0, w.stderr  # a signal ends it cleanly

@@ -55,6 +55,31 @@ TEST(ApiFilter, SourceMatchesSourceOrSources) {
   EXPECT_TRUE(parse_device_filter({{"source", "ethernet"}}, bad));
 }
 
+TEST(ApiFilter, SerialNameAndAddress) {
+  const json d455 = {{"name", "Intel RealSense D455"}, {"serial", "123622270732"}, {"source", "dds"},
+                     {"server", {{"addresses", {"192.0.2.2", "10.0.0.5"}}}}};
+  const json usb = {{"name", "Intel RealSense D435"}, {"serial", "ab12"}, {"source", "usb"}};
+  DeviceFilter serial;
+  ASSERT_FALSE(parse_device_filter({{"serial", "AB12"}}, serial));
+  EXPECT_TRUE(serial.matches(usb));
+  EXPECT_FALSE(serial.matches(d455));
+  DeviceFilter name;  // a part of the name, any case; repeated: either
+  ASSERT_FALSE(parse_device_filter({{"name", "d455"}, {"name", "L515"}}, name));
+  EXPECT_TRUE(name.matches(d455));
+  EXPECT_FALSE(name.matches(usb));
+  DeviceFilter address;
+  ASSERT_FALSE(parse_device_filter({{"address", "10.0.0.5"}}, address));
+  EXPECT_TRUE(address.matches(d455));
+  EXPECT_FALSE(address.matches(usb));  // no server, no address
+  DeviceFilter partial;  // an address is whole, not a prefix
+  ASSERT_FALSE(parse_device_filter({{"address", "10.0.0"}}, partial));
+  EXPECT_FALSE(partial.matches(d455));
+  for (const char* key : {"serial", "name", "address"}) {
+    DeviceFilter empty;
+    EXPECT_TRUE(parse_device_filter({{key, ""}}, empty)) << key;
+  }
+}
+
 TEST(ApiFilter, KeysAndTogetherValuesOr) {
   DeviceFilter f;
   ASSERT_FALSE(parse_device_filter({{"domain", "1"}, {"domain", "2"}, {"source", "dds"}}, f));

@@ -231,8 +231,12 @@ struct DeviceList {
 // applies them (values compare case-insensitively); the library never filters again.
 struct RSDISCOVERY_API DeviceFilter {
   std::optional<int> domain;
+  std::vector<int> domains;  // more domains: a device on any of these and `domain` matches
   std::string product_line;
-  std::string source;  // "dds" or "usb"
+  std::string source;   // "dds" or "usb"
+  std::string serial;   // exactly this serial, ignoring case
+  std::string name;     // a name containing this, ignoring case ("d455")
+  std::string address;  // a network camera whose server has this address
 };
 
 struct Event {
@@ -248,6 +252,11 @@ RSDISCOVERY_API const char* to_string(Event::Type type);
 
 // ---------------------------------------------------------------------------------
 // Watching
+
+struct WatchStatus {
+  bool connected = false;
+  std::string message;  // why it disconnected, or where it connected
+};
 
 struct WatchOptions {
   // Report every device present when the watch starts as a synthetic `added`.
@@ -269,14 +278,12 @@ struct WatchOptions {
   // show up as removed, and added a moment later). The first list is not waited for:
   // it is the starting point, and what arrives after it is reported as events.
   std::chrono::milliseconds complete_timeout{10000};
+  // Told when the stream is lost and when it is back (pull-style watches too; the
+  // push-style one takes its own on_status). Runs on the library's thread.
+  std::function<void(const WatchStatus&)> on_status;
 };
 
 // Connection state changes of a watch, for logging; never required.
-struct WatchStatus {
-  bool connected = false;
-  std::string message;  // why it disconnected, or where it connected
-};
-
 class WatchCore;  // the library's insides
 
 // A running watch, in pull style: next() blocks for the next event. The stream keeps

@@ -7,6 +7,10 @@
 
 namespace rsd::model {
 
+// The daemon's HTTP port when the configuration names none, and so the port a
+// client assumes for an endpoint given as a bare host ("--endpoint camera-pc").
+inline constexpr int kDefaultHttpPort = 8035;
+
 // The system service's socket (systemd's RuntimeDirectory=rs-discoveryd).
 inline constexpr const char* kSystemSocket = "/run/rs-discoveryd/api.sock";
 
