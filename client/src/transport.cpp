@@ -401,6 +401,9 @@ Reply Transport::get_once(const std::string& path, std::optional<std::chrono::mi
     Connection& c = *kept_;
     const auto deadline = Clock::now() + read_timeout;
     auto end = write_all(c.fd, request, deadline, cancelled_);
+    // A daemon at its connection limit answers 503 at once and closes without
+    // reading the request: the write fails, yet the answer is there to read.
+    if (end == IoEnd::closed) end = IoEnd::ok;
     std::optional<Head> head;
     bool malformed = false;
     while (end == IoEnd::ok && !(head = take_head(c.buffer, malformed)) && !malformed)
