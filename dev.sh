@@ -38,6 +38,8 @@ DEB_PACKAGES=(
   clang libclang-rt-dev
   # the daemon's web page, tested in a real headless browser
   chromium chromium-driver
+  # rs-discover's shell completions, tested in the shells themselves
+  bash-completion zsh
 )
 
 say() { printf '\n==> %s\n' "$*"; }

@@ -147,6 +147,7 @@ extern const Command kDescribeCommand;
 extern const Command kWatchCommand;
 extern const Command kDomainsCommand;
 extern const Command kParticipantsCommand;
+extern const Command kDoctorCommand;
 extern const Command kHealthCommand;
 
 }  // namespace rsdiscover

@@ -9,7 +9,7 @@ namespace {
 using namespace rsdiscover;
 
 const Command* const kCommands[] = {&kListCommand, &kGetCommand, &kDescribeCommand, &kWatchCommand,
-                                    &kDomainsCommand, &kParticipantsCommand, &kHealthCommand};
+                                    &kDomainsCommand, &kParticipantsCommand, &kDoctorCommand, &kHealthCommand};
 
 void usage(std::FILE* out) {
   std::fputs(

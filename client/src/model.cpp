@@ -170,6 +170,8 @@ Participant participant_from_json(const json& doc) {
   p.device_info_writers = m.device_info_writers;
   p.devices = m.devices;
   p.never_announced = m.never_announced;
+  p.topic_roots = std::move(m.topic_roots);
+  p.endpoints = m.endpoints;
   p.json = doc.dump();
   return p;
 }

@@ -240,6 +240,12 @@ std::map<std::string, PublisherCounts> DomainBook::publishers(Clock::time_point 
     ++c.writers;
     if (!w.sent && now - w.matched_at >= options_.silent_grace) ++c.silent;
   }
+  for (const auto& [id, device] : devices_) {
+    const auto root = device.doc.find("topic-root");
+    if (root == device.doc.end() || !root->is_string()) continue;
+    for (const auto& [writer, server] : device.announcers)
+      if (auto c = out.find(participant_of(writer)); c != out.end()) c->second.topic_roots.push_back(root->get<std::string>());
+  }
   for (auto& [guid, c] : out) {
     const auto n = per_participant_.find(guid);
     c.devices = n == per_participant_.end() ? 0 : n->second;

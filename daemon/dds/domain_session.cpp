@@ -128,6 +128,14 @@ void DomainSession::start() {
   participant_reader_ =
       dds_create_reader(participant_, DDS_BUILTIN_TOPIC_DCPSPARTICIPANT, nullptr, participant_listener);
   dds_delete_listener(participant_listener);
+  // Every reader and writer of the domain's participants, counted per participant
+  // (taken, not kept): a participant heard but with none was reached by multicast
+  // only, the doctor's "firewall" case.
+  dds_listener_t* endpoint_listener = dds_create_listener(this);
+  dds_lset_data_available(endpoint_listener, &DomainSession::on_endpoint_data);
+  for (const dds_entity_t topic : {DDS_BUILTIN_TOPIC_DCPSPUBLICATION, DDS_BUILTIN_TOPIC_DCPSSUBSCRIPTION})
+    dds_create_reader(participant_, topic, nullptr, endpoint_listener);
+  dds_delete_listener(endpoint_listener);
 
   dds_qos_t* tqos = dds_create_qos();
   dds_qset_reliability(tqos, DDS_RELIABILITY_RELIABLE, DDS_SECS(10));
@@ -396,6 +404,41 @@ void DomainSession::take_participant_changes(dds_entity_t reader) {
     std::array<dds_sample_info_t, kParticipantBatch> info{};
     const dds_return_t n = dds_take_instance(reader, loan.data(), info.data(), kParticipantBatch, kParticipantBatch, c.handle);
     if (n > 0) dds_return_loan(reader, loan.data(), n);
+  }
+}
+
+void DomainSession::on_endpoint_data(dds_entity_t reader, void* arg) {
+  try {
+    static_cast<DomainSession*>(arg)->take_endpoint_changes(reader);
+  } catch (const std::exception& e) {
+    log::error(std::string("endpoint listener: ") + e.what());
+  }
+}
+
+void DomainSession::take_endpoint_changes(dds_entity_t reader) {
+  // One batch size for every take of these readers (see kParticipantBatch).
+  constexpr std::size_t kBatch = 16;
+  std::array<void*, kBatch> samples{};
+  std::array<dds_sample_info_t, kBatch> infos{};
+  for (;;) {
+    samples.fill(nullptr);
+    const dds_return_t n = dds_take(reader, samples.data(), infos.data(), kBatch, kBatch);
+    if (n <= 0) break;
+    {
+      std::lock_guard lock(mutex_);
+      for (dds_return_t i = 0; i < n; ++i) {
+        const auto* ep = static_cast<const dds_builtintopic_endpoint_t*>(samples[static_cast<std::size_t>(i)]);
+        // The key is there in every sample, the rest only in valid ones; an
+        // endpoint's GUID begins with its participant's prefix.
+        const std::string guid = guid_to_string(ep->key);
+        if (infos[static_cast<std::size_t>(i)].instance_state == DDS_IST_ALIVE)
+          participants_.endpoint_alive(participant_of(guid), guid);
+        else
+          participants_.endpoint_gone(participant_of(guid), guid);
+      }
+    }
+    dds_return_loan(reader, samples.data(), n);
+    if (static_cast<std::size_t>(n) < kBatch) break;
   }
 }
 

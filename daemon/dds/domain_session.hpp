@@ -93,9 +93,11 @@ class DomainSession {
   bool complete_locked() const;
   static void on_data_available(dds_entity_t reader, void* arg);
   static void on_participant_data(dds_entity_t reader, void* arg);
+  static void on_endpoint_data(dds_entity_t reader, void* arg);
   static void on_subscription_matched(dds_entity_t reader, dds_subscription_matched_status_t status,
                                       void* arg);
   void take_participant_changes(dds_entity_t reader);
+  void take_endpoint_changes(dds_entity_t reader);
   void take_samples(dds_entity_t reader);
   void handle_matched(dds_entity_t reader, const dds_subscription_matched_status_t& status);
   // Tells the book about `writer` if it does not know it yet (its GUID, its

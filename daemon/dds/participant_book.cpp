@@ -40,13 +40,34 @@ void ParticipantBook::gone(const std::string& guid, const std::string& now) {
   alive_.erase(it);
   p.state = model::ParticipantState::gone;
   p.last_seen = now;
+  // What it had exchanged with the daemon when it went (the doctor's "heard once,
+  // never answered" case has none).
+  if (auto e = endpoints_.find(guid); e != endpoints_.end()) p.endpoints = e->second.size();
   gone_.push_back(std::move(p));
   while (gone_.size() > max_gone_) gone_.pop_front();
+  if (auto e = endpoints_.find(guid); e != endpoints_.end()) {
+    endpoint_count_ -= e->second.size();
+    endpoints_.erase(e);
+  }
+}
+
+void ParticipantBook::endpoint_alive(const std::string& participant, const std::string& endpoint) {
+  if (endpoint_count_ >= kMaxEndpoints) return;
+  if (endpoints_[participant].insert(endpoint).second) ++endpoint_count_;
+}
+
+void ParticipantBook::endpoint_gone(const std::string& participant, const std::string& endpoint) {
+  const auto e = endpoints_.find(participant);
+  if (e == endpoints_.end()) return;
+  endpoint_count_ -= e->second.erase(endpoint);
+  if (e->second.empty()) endpoints_.erase(e);
 }
 
 void ParticipantBook::participant_rebuilt() {
   alive_.clear();
   unlisted_ = 0;
+  endpoints_.clear();
+  endpoint_count_ = 0;
 }
 
 std::vector<model::Participant> ParticipantBook::list(int domain, const std::string& now,
@@ -61,7 +82,9 @@ std::vector<model::Participant> ParticipantBook::list(int domain, const std::str
   for (auto& p : out) {
     p.domain = domain;
     if (p.state != model::ParticipantState::alive) continue;  // its writers went with it
+    if (auto e = endpoints_.find(p.guid); e != endpoints_.end()) p.endpoints = e->second.size();
     if (auto c = publishers.find(p.guid); c != publishers.end()) {
+      p.topic_roots = c->second.topic_roots;
       p.device_info_writers = c->second.writers;
       p.devices = c->second.devices;
       p.silent_writers = c->second.silent;

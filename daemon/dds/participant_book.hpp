@@ -11,6 +11,7 @@
 #include <deque>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,7 @@ struct ParticipantSighting {
 struct PublisherCounts {
   std::size_t writers = 0, devices = 0, silent = 0;
   bool never_announced = false;  // see model::Participant
+  std::vector<std::string> topic_roots;
 };
 
 class ParticipantBook {
@@ -45,6 +47,12 @@ class ParticipantBook {
   void alive(ParticipantSighting sighting, const std::string& now);
   // It said goodbye or its lease ran out (Cyclone tells neither apart).
   void gone(const std::string& guid, const std::string& now);
+  // An endpoint (reader or writer, any topic) of a participant was discovered, or
+  // went. Participants are named by GUID prefix (an endpoint's GUID shares its
+  // participant's), so the order against alive() does not matter.
+  void endpoint_alive(const std::string& participant, const std::string& endpoint);
+  void endpoint_gone(const std::string& participant, const std::string& endpoint);
+
   // The daemon's participant was made anew: it hears every alive peer again and
   // those it does not are not there; the gone ones are kept.
   void participant_rebuilt();
@@ -60,6 +68,11 @@ class ParticipantBook {
   std::map<std::string, model::Participant> alive_;  // by GUID
   std::deque<model::Participant> gone_;               // oldest first
   std::size_t unlisted_ = 0;
+  // Endpoint GUIDs by participant GUID; bounded like the participants (a peer
+  // making endpoints without end is counted up to the bound only).
+  std::map<std::string, std::set<std::string>> endpoints_;
+  std::size_t endpoint_count_ = 0;
+  static constexpr std::size_t kMaxEndpoints = 65536;
 };
 
 }  // namespace rsd::dds

@@ -22,6 +22,8 @@ constexpr const char* device_info_writers = "device-info-writers";
 constexpr const char* devices = "devices";
 constexpr const char* silent_writers = "silent-writers";
 constexpr const char* never_announced = "never-announced";
+constexpr const char* topic_roots = "topic-roots";
+constexpr const char* endpoints = "endpoints";
 }  // namespace key
 
 constexpr const char* kWhat = "a participant entry";
@@ -98,7 +100,9 @@ nlohmann::json to_json(const Participant& p) {
                         {key::device_info_writers, p.device_info_writers},
                         {key::devices, p.devices},
                         {key::silent_writers, p.silent_writers},
-                        {key::never_announced, p.never_announced}};
+                        {key::never_announced, p.never_announced},
+                        {key::topic_roots, p.topic_roots},
+                        {key::endpoints, p.endpoints}};
   if (p.host) doc[key::host] = *p.host;
   if (p.process) doc[key::process] = *p.process;
   if (p.pid) doc[key::pid] = *p.pid;
@@ -144,6 +148,10 @@ Participant participant_from_json(const nlohmann::json& doc) {
   const auto& never = member(doc, key::never_announced);
   if (!never.is_boolean()) throw MalformedDocument("a participant entry's \"never-announced\" is not true or false");
   p.never_announced = never.get<bool>();
+  const auto& roots = member(doc, key::topic_roots);
+  if (!roots.is_array()) throw MalformedDocument("a participant entry's \"topic-roots\" is not an array");
+  for (const auto& r : roots) p.topic_roots.push_back(text(r, key::topic_roots));
+  p.endpoints = count(doc, key::endpoints);
   return p;
 }
 

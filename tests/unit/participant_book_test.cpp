@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <string>
 
 using namespace std::chrono_literals;
@@ -44,7 +46,7 @@ TEST(ParticipantBook, AliveParticipantsCarryVendorAndCounts) {
   ParticipantBook book;
   book.alive(fast_dds(1), "T1");
   book.alive(cyclone(1), "T2");
-  const std::map<std::string, PublisherCounts> publishers = {{fast_dds(1).guid, {3, 2, 0, false}}};
+  const std::map<std::string, PublisherCounts> publishers = {{fast_dds(1).guid, {3, 2, 0, false, {"realsense/D455_1", "realsense/D455_2"}}}};
   const auto list = book.list(7, "T9", publishers);
   ASSERT_EQ(list.size(), 2u);
   const auto& camera = list[0].vendor == Vendor::fast_dds ? list[0] : list[1];
@@ -56,6 +58,7 @@ TEST(ParticipantBook, AliveParticipantsCarryVendorAndCounts) {
   EXPECT_EQ(camera.last_seen, "T9");  // alive: heard within its lease
   EXPECT_EQ(camera.device_info_writers, 3u);
   EXPECT_EQ(camera.devices, 2u);
+  EXPECT_EQ(camera.topic_roots, (std::vector<std::string>{"realsense/D455_1", "realsense/D455_2"}));
   EXPECT_EQ(other.vendor, Vendor::cyclone_dds);
   EXPECT_EQ(other.host, "lab-pc");
   EXPECT_EQ(other.pid, 4242);
@@ -81,7 +84,7 @@ TEST(ParticipantBook, GoneOnesAreListedAfterTheAliveLatestFirst) {
   book.alive(fast_dds(3), "T1");
   book.gone(fast_dds(1).guid, "T4");
   book.gone(fast_dds(2).guid, "T5");
-  const auto list = book.list(0, "T9", {{fast_dds(1).guid, {2, 1, 0, false}}});
+  const auto list = book.list(0, "T9", {{fast_dds(1).guid, {2, 1, 0, false, {"realsense/D455_1"}}}});
   ASSERT_EQ(list.size(), 3u);
   EXPECT_EQ(list[0].state, ParticipantState::alive);
   EXPECT_EQ(list[1].guid, fast_dds(2).guid);
@@ -126,6 +129,26 @@ TEST(ParticipantBook, ARebuiltParticipantForgetsTheAliveOnesOnly) {
   EXPECT_EQ(list[0].state, ParticipantState::gone);
 }
 
+TEST(ParticipantBook, EndpointsAreCountedPerParticipantAndKeptWhenItGoes) {
+  ParticipantBook book;
+  const auto p = fast_dds(1);
+  const std::string prefix = p.guid.substr(0, 27);
+  book.endpoint_alive(p.guid, prefix + "00000503");  // before its participant: order does not matter
+  book.alive(p, "T1");
+  book.endpoint_alive(p.guid, prefix + "00000504");
+  book.endpoint_alive(p.guid, prefix + "00000504");  // the same one again (a QoS change)
+  book.alive(fast_dds(2), "T1");
+  auto list = book.list(0, "T2", {});
+  ASSERT_EQ(list.size(), 2u);
+  for (const auto& x : list) EXPECT_EQ(x.endpoints, x.guid == p.guid ? 2u : 0u) << x.guid;
+  book.endpoint_gone(p.guid, prefix + "00000503");
+  book.gone(p.guid, "T3");
+  list = book.list(0, "T4", {});
+  const auto gone = std::find_if(list.begin(), list.end(), [&](const auto& x) { return x.guid == p.guid; });
+  ASSERT_NE(gone, list.end());
+  EXPECT_EQ(gone->endpoints, 1u);  // what it had when it went
+}
+
 TEST(DomainBookPublishers, CountsWritersDevicesAndSilence) {
   rsd::SharedTable table;
   rsd::dds::BookOptions options;
@@ -151,6 +174,7 @@ TEST(DomainBookPublishers, CountsWritersDevicesAndSilence) {
   counts = book.publishers(t0 + 10s);
   EXPECT_EQ(counts[talking].writers, 2u);
   EXPECT_EQ(counts[talking].devices, 1u);
+  EXPECT_EQ(counts[talking].topic_roots, std::vector<std::string>{"realsense/D455_1"});
   EXPECT_EQ(counts[talking].silent, 1u);
   EXPECT_FALSE(counts[talking].never_announced);
   EXPECT_EQ(counts[silent].writers, 2u);

@@ -167,6 +167,10 @@ struct Participant {
   // A realdds server whose device writers matched but none of whose announcements
   // arrived: the network path or the server is at fault.
   bool never_announced = false;
+  std::vector<std::string> topic_roots;  // of the cameras it announces
+  // Its readers and writers the daemon discovered; none for a participant heard for
+  // seconds means the unicast exchange after discovery does not get through.
+  std::uint64_t endpoints = 0;
   std::string json;  // the whole entry
 };
 

@@ -74,6 +74,12 @@ struct Participant {
   std::size_t device_info_writers = 0;
   std::size_t devices = 0;
   std::size_t silent_writers = 0;
+  std::vector<std::string> topic_roots;  // of the devices it announces
+  // Its readers and writers (on any topic) the daemon's participant discovered.
+  // Every DDS program has some; a participant alive for seconds with none was
+  // heard over multicast while the unicast exchange that follows never got
+  // through (a firewall dropping the domain's unicast ports, measured).
+  std::size_t endpoints = 0;
   // A realdds server whose device writers matched and never announced a device:
   // two or more silent writers and no device (the cause is on the network path,
   // or the server is stuck; the daemon has already asked it to announce again).

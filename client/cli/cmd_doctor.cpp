@@ -1,0 +1,403 @@
+// rs-discover doctor: why a camera is missing. Checks the usual causes, from what the
+// daemon knows (its domains, the participants it hears, its cameras, USB) and, when
+// the daemon runs on this host, from the host's network (interfaces, multicast route),
+// and says what to do, one line each.
+#include "common.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <arpa/inet.h>
+#include <ifaddrs.h>
+#include <net/if.h>
+#include <netinet/in.h>
+
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace rsdiscover {
+namespace {
+
+enum class Verdict { ok, info, warn, fail };
+
+struct Finding {
+  Verdict verdict;
+  std::string topic;
+  std::string text;
+};
+
+class Report {
+ public:
+  void add(Verdict v, std::string topic, std::string text) { findings_.push_back({v, std::move(topic), std::move(text)}); }
+  int print(bool json) const {
+    int worst = 0;
+    for (const auto& f : findings_) worst = std::max(worst, static_cast<int>(f.verdict));
+    if (json) {
+      std::string out = "{\"findings\":[";
+      for (std::size_t i = 0; i < findings_.size(); ++i) {
+        const auto& f = findings_[i];
+        out += std::string(i ? "," : "") + "{\"verdict\":\"" + name(f.verdict) + "\",\"topic\":" + quote(f.topic) +
+               ",\"text\":" + quote(f.text) + "}";
+      }
+      std::fputs((out + "]}\n").c_str(), stdout);
+    } else {
+      for (const auto& f : findings_) {
+        char label[8];
+        std::snprintf(label, sizeof label, "%-5s", name(f.verdict));
+        std::printf("%s %-10s %s\n", paint(label, code(f.verdict)).c_str(), f.topic.c_str(), f.text.c_str());
+      }
+    }
+    // 0: nothing wrong found; 1: something to fix (a warning or a failure).
+    return worst >= static_cast<int>(Verdict::warn) ? kNotFound : kOk;
+  }
+
+ private:
+  static const char* name(Verdict v) {
+    switch (v) {
+      case Verdict::ok: return "ok";
+      case Verdict::info: return "info";
+      case Verdict::warn: return "warn";
+      case Verdict::fail: return "fail";
+    }
+    return "?";
+  }
+  static const char* code(Verdict v) {
+    return v == Verdict::ok ? color::green : v == Verdict::fail ? color::red : v == Verdict::warn ? color::yellow : nullptr;
+  }
+  static std::string quote(const std::string& s) {
+    std::string out = "\"";
+    for (char c : s) {
+      if (c == '"' || c == '\\') out += '\\';
+      if (static_cast<unsigned char>(c) < 0x20) {
+        char hex[8];
+        std::snprintf(hex, sizeof hex, "\\u%04x", c);
+        out += hex;
+        continue;
+      }
+      out += c;
+    }
+    return out + "\"";
+  }
+  std::vector<Finding> findings_;
+};
+
+// The UDP ports of DDS domain d (the RTPS port mapping): 7400 + 250 d upwards.
+std::string ports_of(int domain) {
+  const int base = 7400 + 250 * domain;
+  return "UDP " + std::to_string(base) + "-" + std::to_string(base + 249) + " (domain " + std::to_string(domain) + ")";
+}
+
+// ---- this host's network ---------------------------------------------------------------
+
+struct Interface {
+  std::string name;
+  in_addr address{};
+  in_addr netmask{};
+  bool up = false, multicast = false, loopback = false;
+};
+
+std::vector<Interface> ipv4_interfaces() {
+  std::vector<Interface> out;
+  ifaddrs* list = nullptr;
+  if (getifaddrs(&list) != 0) return out;
+  for (ifaddrs* i = list; i; i = i->ifa_next) {
+    if (!i->ifa_addr || i->ifa_addr->sa_family != AF_INET || !i->ifa_netmask) continue;
+    Interface itf;
+    itf.name = i->ifa_name;
+    itf.address = reinterpret_cast<sockaddr_in*>(i->ifa_addr)->sin_addr;
+    itf.netmask = reinterpret_cast<sockaddr_in*>(i->ifa_netmask)->sin_addr;
+    itf.up = (i->ifa_flags & IFF_UP) && (i->ifa_flags & IFF_RUNNING);
+    itf.multicast = i->ifa_flags & IFF_MULTICAST;
+    itf.loopback = i->ifa_flags & IFF_LOOPBACK;
+    out.push_back(itf);
+  }
+  freeifaddrs(list);
+  return out;
+}
+
+std::string text_of(in_addr a) {
+  char buf[INET_ADDRSTRLEN] = "";
+  inet_ntop(AF_INET, &a, buf, sizeof buf);
+  return buf;
+}
+
+std::optional<in_addr> ipv4(const std::string& text) {
+  in_addr a{};
+  if (inet_pton(AF_INET, text.c_str(), &a) != 1) return std::nullopt;
+  return a;
+}
+
+bool same_subnet(const Interface& itf, in_addr other) {
+  return (itf.address.s_addr & itf.netmask.s_addr) == (other.s_addr & itf.netmask.s_addr);
+}
+
+// The interface the kernel would send 239.255.0.1 (Cyclone's discovery group) out
+// of: a route covering it (224.0.0.0/4 and the like) or the default route; "" when
+// there is none. From /proc/net/route (the main table, as `ip route` shows it).
+std::string multicast_route() {
+  std::ifstream routes("/proc/net/route");
+  std::string line, best;
+  int best_bits = -1;
+  std::getline(routes, line);  // the header
+  const std::uint32_t group = htonl(0xEFFF0001);  // 239.255.0.1, as the file has it (network order)
+  while (std::getline(routes, line)) {
+    std::istringstream in(line);
+    std::string iface, dest_hex, gateway_hex, flags_hex, refcnt, use, metric, mask_hex;
+    if (!(in >> iface >> dest_hex >> gateway_hex >> flags_hex >> refcnt >> use >> metric >> mask_hex)) continue;
+    const auto dest = static_cast<std::uint32_t>(std::stoul(dest_hex, nullptr, 16));
+    const auto mask = static_cast<std::uint32_t>(std::stoul(mask_hex, nullptr, 16));
+    const auto flags = std::stoul(flags_hex, nullptr, 16);
+    if (!(flags & 0x1)) continue;  // RTF_UP
+    if ((group & mask) != (dest & mask)) continue;
+    const int bits = __builtin_popcount(mask);
+    if (bits > best_bits) {
+      best_bits = bits;
+      best = iface;
+    }
+  }
+  return best;
+}
+
+bool link_local(in_addr a) { return (ntohl(a.s_addr) >> 16) == 0xA9FE; }  // 169.254/16
+// Docker's and Podman's default bridges: a camera there is behind NAT, out of reach
+// of multicast discovery from the host's network.
+bool container_bridge(in_addr a) {
+  const auto h = ntohl(a.s_addr);
+  return (h >> 16) == 0xAC11 || (h >> 16) == 0x0A58;  // 172.17/16, 10.88/16
+}
+
+bool endpoint_is_local(const std::string& endpoint) {
+  if (endpoint.rfind("unix:", 0) == 0 || (!endpoint.empty() && endpoint[0] == '/')) return true;
+  for (const char* host : {"127.", "localhost", "[::1]"})
+    if (endpoint.find(std::string("://") + host) != std::string::npos || endpoint.rfind(host, 0) == 0) return true;
+  return false;
+}
+
+double seconds_between(const std::string& from, const std::string& to) {
+  const auto a = parse_iso8601(from), b = parse_iso8601(to);
+  return a && b ? *b - *a : 0;
+}
+
+std::string who(const rsdiscovery::Participant& p) {
+  std::string name = p.name.empty() ? p.guid : "'" + p.name + "'";
+  if (!p.addresses.empty()) name += " at " + join(p.addresses, ", ");
+  return name + " (domain " + std::to_string(p.domain) + ")";
+}
+
+// ---- the checks ------------------------------------------------------------------------
+
+void check_domains(Report& r, const std::vector<rsdiscovery::DomainStatus>& domains) {
+  std::vector<std::string> joined;
+  bool zero = false;
+  for (const auto& d : domains) {
+    joined.push_back(std::to_string(d.domain) + " (" + d.state + ")");
+    zero = zero || d.domain == 0;
+    if (d.state == "failed") {
+      const auto doc = nlohmann::json::parse(d.json, nullptr, false);
+      const std::string why = doc.is_object() ? doc.value("error", std::string()) : std::string();
+      r.add(Verdict::fail, "domain", "domain " + std::to_string(d.domain) + " could not be joined: " + why);
+    }
+  }
+  r.add(Verdict::ok, "domains", "the daemon listens on DDS domain" + std::string(domains.size() == 1 ? " " : "s ") +
+                                    join(joined, ", ") + "; it hears no other domain");
+  if (!zero)
+    r.add(Verdict::info, "domains", "domain 0 is not among them: cameras and librealsense use domain 0 unless "
+                                    "configured otherwise (add it with --domain 0, or \"domains\" in the config)");
+}
+
+void check_participants(Report& r, const std::vector<rsdiscovery::Participant>& all,
+                        const std::vector<rsdiscovery::DomainStatus>& domains) {
+  std::size_t alive = 0, servers = 0;
+  for (const auto& p : all) {
+    if (p.state != "alive") continue;
+    ++alive;
+    if (p.device_info_writers > 0) ++servers;
+    const double age = seconds_between(p.first_seen, p.last_seen);
+    // realdds and librealsense (Fast DDS) always have readers and writers; another
+    // program may have none (a bare participant, measured with Cyclone 11), so
+    // for those it is only a hint.
+    if (p.endpoints == 0 && age >= 5 && p.vendor == "fast-dds")
+      r.add(Verdict::fail, "firewall",
+            who(p) + " is heard (multicast) but has exchanged nothing with the daemon for " +
+                std::to_string(static_cast<int>(age)) + " s: unicast UDP between this host and it is blocked; open " +
+                ports_of(p.domain) + " both ways on both hosts");
+    else if (p.endpoints == 0 && age >= 5)
+      r.add(Verdict::info, "firewall",
+            who(p) + " shows no readers or writers: a participant without any, or unicast UDP to it is blocked (" +
+                ports_of(p.domain) + ")");
+    if (p.never_announced)
+      r.add(Verdict::fail, "firewall",
+            who(p) + " is a realdds server whose cameras matched but never arrived: its device-info does not "
+                     "get through (a firewall or an MTU problem on the path), or the server is stuck");
+  }
+  for (const auto& p : all) {
+    if (p.state != "gone" || p.endpoints != 0 || p.vendor != "fast-dds") continue;
+    const double life = seconds_between(p.first_seen, p.last_seen);
+    if (p.lease_seconds && life <= *p.lease_seconds + 2)
+      r.add(Verdict::warn, "firewall",
+            who(p) + " was heard once and lost after its lease (" + std::to_string(static_cast<int>(life)) +
+                " s) without exchanging anything: if it still runs, its packets stop reaching this host "
+                "(a firewall letting only the first ones through; open " + ports_of(p.domain) + ")");
+  }
+  std::vector<int> ids;
+  for (const auto& d : domains) ids.push_back(d.domain);
+  if (alive == 0) {
+    std::vector<std::string> names;
+    for (int d : ids) names.push_back(std::to_string(d));
+    r.add(Verdict::warn, "network",
+          "nobody else is heard on domain" + std::string(ids.size() == 1 ? " " : "s ") + join(names, ", ") +
+              ": the cameras are on another domain, or multicast discovery does not reach this host "
+              "(see the multicast and interface lines)");
+  } else {
+    r.add(Verdict::ok, "network", std::to_string(alive) + " participant" + (alive == 1 ? "" : "s") + " heard, " +
+                                      std::to_string(servers) + " announcing cameras ('rs-discover participants')");
+  }
+  // One topic-root from two servers: two cameras configured alike, or one camera
+  // served twice; clients see either.
+  std::map<std::string, std::vector<const rsdiscovery::Participant*>> by_root;
+  for (const auto& p : all)
+    if (p.state == "alive")
+      for (const auto& root : p.topic_roots) by_root[std::to_string(p.domain) + "/" + root].push_back(&p);
+  for (const auto& [key, servers_of] : by_root) {
+    if (servers_of.size() < 2) continue;
+    std::vector<std::string> names;
+    for (const auto* p : servers_of) names.push_back(who(*p));
+    r.add(Verdict::fail, "topic-root",
+          key.substr(key.find('/') + 1) + " is announced by " + std::to_string(servers_of.size()) +
+              " servers: " + join(names, " and ") + "; give each camera its own topic-root (its serial)");
+  }
+  // Addresses no one on this network can reach.
+  std::set<std::string> said;
+  for (const auto& p : all) {
+    if (p.state != "alive") continue;
+    for (const auto& a : p.addresses) {
+      const auto v4 = ipv4(a);
+      if (!v4 || said.count(a)) continue;
+      if (link_local(*v4) || a.rfind("fe80:", 0) == 0) {
+        said.insert(a);
+        r.add(Verdict::warn, "addresses",
+              who(p) + " has a link-local address: it got no address from DHCP; give it a static address or a "
+                       "DHCP server on its network");
+      } else if (container_bridge(*v4)) {
+        said.insert(a);
+        r.add(Verdict::warn, "addresses",
+              who(p) + " is on a container bridge: run its container with --network host, or list its address "
+                       "as a unicast peer in cyclonedds-config");
+      }
+    }
+  }
+}
+
+void check_host_network(Report& r, const std::vector<rsdiscovery::Participant>& all) {
+  const auto interfaces = ipv4_interfaces();
+  std::vector<const Interface*> usable;
+  for (const auto& i : interfaces)
+    if (i.up && !i.loopback) usable.push_back(&i);
+  if (usable.empty()) {
+    r.add(Verdict::fail, "interface", "this host has no network interface up but loopback: only cameras on this "
+                                      "host can be found");
+    return;
+  }
+  const std::string route = multicast_route();
+  if (route.empty())
+    r.add(Verdict::warn, "multicast",
+          "no route for multicast 239.255.0.1 (no default route, no 224.0.0.0/4 route): discovery cannot leave this "
+          "host; add one ('ip route add 224.0.0.0/4 dev " + usable.front()->name +
+              "'), or list the cameras as unicast peers in cyclonedds-config");
+  else
+    r.add(Verdict::ok, "multicast", "discovery multicast (239.255.0.1) leaves by " + route);
+  for (const auto* i : usable)
+    if (!i->multicast)
+      r.add(Verdict::warn, "multicast", i->name + " (" + text_of(i->address) +
+                                            ") does not do multicast: cameras behind it need unicast peers");
+  // Which of this host's networks the participants are on, against the one
+  // discovery multicast leaves by (Cyclone's pick follows the same rule).
+  std::map<std::string, std::size_t> on;  // interface name -> participants
+  for (const auto& p : all) {
+    if (p.state != "alive") continue;
+    for (const auto& a : p.addresses)
+      if (const auto v4 = ipv4(a))
+        for (const auto* i : usable)
+          if (same_subnet(*i, *v4)) ++on[i->name];
+  }
+  for (const auto& [name, n] : on)
+    if (!route.empty() && name != route)
+      r.add(Verdict::warn, "interface",
+            std::to_string(n) + " participant" + (n == 1 ? " is" : "s are") + " on " + name +
+                "'s network, but discovery multicast leaves by " + route +
+                ": if cameras are missing, set NetworkInterface " + name + " in cyclonedds-config");
+}
+
+void check_devices(Report& r, const std::vector<rsdiscovery::Device>& devices, const rsdiscovery::Health& health) {
+  for (const auto& d : devices) {
+    for (const auto& w : d.warnings)
+      r.add(Verdict::warn, "usb", (d.name.empty() ? d.id : d.name) + " " + d.serial + ": " + w);
+    if (d.recovery)
+      r.add(Verdict::warn, "camera", (d.name.empty() ? d.id : d.name) + " " + d.serial +
+                                         " runs its recovery firmware: update its firmware");
+  }
+  const auto doc = nlohmann::json::parse(health.json, nullptr, false);
+  const auto usb = doc.is_object() ? doc.value("usb", nlohmann::json::object()) : nlohmann::json::object();
+  const std::string state = usb.value("state", "");
+  if (state == "unavailable")
+    r.add(Verdict::warn, "usb", "the daemon cannot watch USB: " + usb.value("error", std::string("(no reason given)")));
+  else if (state == "off")
+    r.add(Verdict::info, "usb", "the daemon does not watch USB (--no-usb or \"usb\": false)");
+  else if (!state.empty())
+    r.add(Verdict::ok, "usb", "the daemon watches USB (" + state + ")");
+}
+
+int run(const ParsedArgs& args) {
+  if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
+  Report report;
+  auto client = make_client(args);
+  rsdiscovery::Health health;
+  try {
+    health = client.health();
+  } catch (const rsdiscovery::Error& e) {
+    report.add(Verdict::fail, "daemon", std::string(e.what()) +
+                                            " (start it: 'systemctl start rs-discoveryd', or see 'rs-discoveryd --help')");
+    report.print(args.has("json"));
+    return e.code() == rsdiscovery::ErrorCode::not_running || e.code() == rsdiscovery::ErrorCode::permission_denied
+               ? kUnreachable
+               : kBadReply;
+  }
+  report.add(Verdict::ok, "daemon", "rs-discoveryd " + health.version + " answers at " + client.endpoint().to_string() +
+                                        (health.complete ? "" : " (its first discovery still runs: look again in a few seconds)"));
+  const auto domains = client.domains();
+  const auto participants = client.participants();
+  const auto devices = client.list_devices();
+  check_domains(report, domains);
+  check_participants(report, participants, domains);
+  if (endpoint_is_local(client.endpoint().to_string()))
+    check_host_network(report, participants);
+  else
+    report.add(Verdict::info, "interface", "the daemon is on another host: its network is not checked from here");
+  check_devices(report, devices, health);
+  report.add(Verdict::info, "cameras", std::to_string(devices.size()) + " camera" + (devices.size() == 1 ? "" : "s") +
+                                           " listed ('rs-discover list')");
+  return report.print(args.has("json"));
+}
+
+}  // namespace
+
+const Command kDoctorCommand = {
+    "doctor",
+    "find out why a camera is missing",
+    "doctor [--json]",
+    "Check the usual reasons a camera is not listed, and say what to do, one line each:\n"
+    "the DDS domains the daemon joined (cameras use 0 unless configured otherwise), who\n"
+    "it hears on them, participants heard but not answering (a firewall on the domain's\n"
+    "UDP ports), realdds servers whose cameras never arrive, a topic-root announced by\n"
+    "two servers, link-local or container-bridge addresses, and, when the daemon runs\n"
+    "on this host, its multicast route and which network the participants are on; USB\n"
+    "cameras on a USB 2 link and USB the daemon cannot watch.\n"
+    "Exit status 0 when nothing is wrong, 1 when a line says 'warn' or 'fail'.",
+    {
+        {"json", 'j', nullptr, "print {\"findings\": [{\"verdict\", \"topic\", \"text\"}, ...]}"},
+    },
+    run,
+};
+
+}  // namespace rsdiscover
