@@ -20,8 +20,19 @@ int run(const ParsedArgs& args) {
   std::uint64_t generation = 0;
   if (wait > 0) {
     auto ms = std::chrono::milliseconds(static_cast<long long>(timeout * 1000));
+    // Feedback on stderr while waiting: each time the count moves short of the goal.
+    std::optional<std::size_t> said;
     auto got = client.wait_until(
-        filter, [wait](const std::vector<rsdiscovery::Device>& v) { return v.size() >= static_cast<std::size_t>(wait); }, ms);
+        filter,
+        [&](const std::vector<rsdiscovery::Device>& v) {
+          if (v.size() >= static_cast<std::size_t>(wait)) return true;
+          if (said != v.size())
+            std::fprintf(stderr, "rs-discover: waiting up to %gs for %d device%s (%zu present)\n", timeout, wait,
+                         wait == 1 ? "" : "s", v.size());
+          said = v.size();
+          return false;
+        },
+        ms);
     if (!got) {
       auto now = client.list_devices(filter);
       std::fprintf(stderr, "rs-discover: timed out after %gs waiting for %d device%s (%zu present)\n", timeout,

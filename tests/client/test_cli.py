@@ -115,6 +115,7 @@ def test_wait_for_devices_and_timeout(daemon, realdds_server, domain):
     out, err = waiter.communicate(timeout=40)
     assert waiter.returncode == 0, err
     assert out.split() == [f"dds-{domain}-realsense.D455_123622270707"]
+    assert "waiting up to 30s for 1 device (0 present)" in err  # said on stderr while it waited
 
 
 def test_daemon_not_running_and_permission(tmp_path):
