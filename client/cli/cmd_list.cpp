@@ -114,13 +114,7 @@ const Command kListCommand = {
     "  rs-discover list --format '{serial}\\t{name}\\t{fw-version}'\n"
     "with any key of the camera's JSON document, or {state}, {location}, {address},\n"
     "{sources}, {age} as the table shows them.",
-    {
-        kDomainOption,
-        kProductLineOption,
-        kSourceOption,
-        kSerialOption,
-        kNameOption,
-        kAddressOption,
+    with_device_filters({
         {"json", 'j', nullptr, "print JSON: {\"complete\": true, \"devices\": [...], \"generation\": N}, as the API gives it"},
         {"quiet", 'q', nullptr, "print only the device ids, one a line"},
         {"wide", 'w', nullptr, "add the PRODUCT-ID, FW and ID columns"},
@@ -130,7 +124,7 @@ const Command kListCommand = {
         {"timeout", 't', "S", "give up waiting after S seconds (default 10; exit status 1)"},
         kNoWaitCompleteOption,
         kCompleteTimeoutOption,
-    },
+    }),
     run,
 };
 

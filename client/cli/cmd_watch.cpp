@@ -183,20 +183,14 @@ const Command kWatchCommand = {
     "with the local date and time; a 'changed' line says what changed (fw-version 5.16.0.1 ->\n"
     "5.16.1.0). The stream resumes by itself when the daemon restarts (said on stderr); what\n"
     "changed meanwhile is reported too (marked as re-listed).",
-    {
+    with_device_filters({
         {"json", 'j', nullptr,
          "one JSON object a line: {\"event\", \"id\", \"synthetic\", \"device\"}"},
         {"initial", 'i', nullptr, "first report every device present now as added"},
-        kDomainOption,
-        kProductLineOption,
-        kSourceOption,
-        kSerialOption,
-        kNameOption,
-        kAddressOption,
         {"count", 'c', "N", "exit after N events"},
         {"timeout", 't', "S", "exit after S seconds (status 1 if --count events did not come)"},
         {"last-event-id", 0, "ID", "resume after this event id (from an earlier --json run)"},
-    },
+    }),
     run,
 };
 

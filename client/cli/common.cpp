@@ -24,6 +24,11 @@ const std::vector<OptionSpec> kCommonOptions = {
     {"version", 'V', nullptr, "show rs-discover's version and exit"},
 };
 
+std::vector<OptionSpec> with_device_filters(std::vector<OptionSpec> own) {
+  own.insert(own.begin(), {kDomainOption, kProductLineOption, kSourceOption, kSerialOption, kNameOption, kAddressOption});
+  return own;
+}
+
 Output& output() {
   static Output o;
   return o;

@@ -54,6 +54,8 @@ inline constexpr OptionSpec kSerialOption = {"serial", 0, "SERIAL", "only the de
 inline constexpr OptionSpec kNameOption = {"name", 'n', "TEXT", "only devices whose name contains TEXT (any case)"};
 inline constexpr OptionSpec kAddressOption = {"address", 'a', "ADDR",
                                               "only network cameras whose server has this address"};
+// `own` with the device filters above in front: list's and watch's options.
+std::vector<OptionSpec> with_device_filters(std::vector<OptionSpec> own);
 inline constexpr OptionSpec kNoHeadersOption = {"no-headers", 'H', nullptr, "print the table without its header line"};
 
 struct ParsedArgs {

@@ -1,5 +1,7 @@
 #include "rsd_model/participant.hpp"
 
+#include "read_json.hpp"
+
 namespace rsd::model {
 
 namespace {
@@ -28,22 +30,16 @@ constexpr const char* endpoints = "endpoints";
 
 constexpr const char* kWhat = "a participant entry";
 
-const nlohmann::json& member(const nlohmann::json& doc, const char* name) {
-  const auto it = doc.find(name);
-  if (it == doc.end()) throw MalformedDocument(std::string(kWhat) + " has no \"" + name + "\"");
-  return *it;
-}
-
-std::string text(const nlohmann::json& v, const char* name) {
-  if (!v.is_string()) throw MalformedDocument(std::string(kWhat) + ": \"" + name + "\" is not a string");
-  return v.get<std::string>();
-}
-
-std::size_t count(const nlohmann::json& doc, const char* name) {
-  const auto& v = member(doc, name);
-  if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<std::int64_t>() >= 0))
-    throw MalformedDocument(std::string(kWhat) + ": \"" + name + "\" is not a count");
-  return v.get<std::size_t>();
+// A list of strings, each checked.
+std::vector<std::string> texts(const nlohmann::json& doc, const char* name) {
+  const auto& v = read_json::member(doc, name, kWhat);
+  if (!v.is_array()) throw MalformedDocument(std::string(kWhat) + ": \"" + name + "\" is not an array");
+  std::vector<std::string> out;
+  for (const auto& item : v) {
+    if (!item.is_string()) throw MalformedDocument(std::string(kWhat) + ": \"" + name + "\" holds a non-string");
+    out.push_back(item.get<std::string>());
+  }
+  return out;
 }
 
 int hex_digit(char c) {
@@ -111,23 +107,21 @@ nlohmann::json to_json(const Participant& p) {
 }
 
 Participant participant_from_json(const nlohmann::json& doc) {
-  if (!doc.is_object()) throw MalformedDocument(std::string(kWhat) + " is not a JSON object");
+  using namespace read_json;
+  want_object(doc, kWhat);
   Participant p;
-  const auto& domain = member(doc, key::domain);
+  const auto& domain = member(doc, key::domain, kWhat);
   if (!domain.is_number_integer() || domain.get<std::int64_t>() < 0 || domain.get<std::int64_t>() > 232)
     throw MalformedDocument("a participant entry's \"domain\" is not a domain id");
   p.domain = domain.get<int>();
-  p.guid = text(member(doc, key::guid), key::guid);
-  p.name = text(member(doc, key::name), key::name);
-  const auto vendor = text(member(doc, key::vendor), key::vendor);
+  p.guid = text(doc, key::guid, kWhat);
+  p.name = text(doc, key::name, kWhat);
   // A vendor this client does not know yet (a newer daemon's) reads as "other".
-  p.vendor = parse_vendor(vendor).value_or(Vendor::other);
-  p.vendor_id = text(member(doc, key::vendor_id), key::vendor_id);
-  const auto& addresses = member(doc, key::addresses);
-  if (!addresses.is_array()) throw MalformedDocument("a participant entry's \"addresses\" is not an array");
-  for (const auto& a : addresses) p.addresses.push_back(text(a, key::addresses));
-  if (auto it = doc.find(key::host); it != doc.end()) p.host = text(*it, key::host);
-  if (auto it = doc.find(key::process); it != doc.end()) p.process = text(*it, key::process);
+  p.vendor = parse_vendor(text(doc, key::vendor, kWhat)).value_or(Vendor::other);
+  p.vendor_id = text(doc, key::vendor_id, kWhat);
+  p.addresses = texts(doc, key::addresses);
+  if (doc.contains(key::host)) p.host = text(doc, key::host, kWhat);
+  if (doc.contains(key::process)) p.process = text(doc, key::process, kWhat);
   if (auto it = doc.find(key::pid); it != doc.end()) {
     if (!it->is_number_integer()) throw MalformedDocument("a participant entry's \"pid\" is not a number");
     p.pid = it->get<std::int64_t>();
@@ -136,22 +130,18 @@ Participant participant_from_json(const nlohmann::json& doc) {
     if (!it->is_number()) throw MalformedDocument("a participant entry's \"lease-seconds\" is not a number");
     p.lease_seconds = it->get<double>();
   }
-  const auto state = text(member(doc, key::state), key::state);
+  const auto state = text(doc, key::state, kWhat);
   const auto parsed = parse_participant_state(state);
   if (!parsed) throw MalformedDocument("a participant entry has an unknown state '" + state + "'");
   p.state = *parsed;
-  p.first_seen = text(member(doc, key::first_seen), key::first_seen);
-  p.last_seen = text(member(doc, key::last_seen), key::last_seen);
-  p.device_info_writers = count(doc, key::device_info_writers);
-  p.devices = count(doc, key::devices);
-  p.silent_writers = count(doc, key::silent_writers);
-  const auto& never = member(doc, key::never_announced);
-  if (!never.is_boolean()) throw MalformedDocument("a participant entry's \"never-announced\" is not true or false");
-  p.never_announced = never.get<bool>();
-  const auto& roots = member(doc, key::topic_roots);
-  if (!roots.is_array()) throw MalformedDocument("a participant entry's \"topic-roots\" is not an array");
-  for (const auto& r : roots) p.topic_roots.push_back(text(r, key::topic_roots));
-  p.endpoints = count(doc, key::endpoints);
+  p.first_seen = text(doc, key::first_seen, kWhat);
+  p.last_seen = text(doc, key::last_seen, kWhat);
+  p.device_info_writers = count(doc, key::device_info_writers, kWhat);
+  p.devices = count(doc, key::devices, kWhat);
+  p.silent_writers = count(doc, key::silent_writers, kWhat);
+  p.never_announced = flag(doc, key::never_announced, kWhat);
+  p.topic_roots = texts(doc, key::topic_roots);
+  p.endpoints = count(doc, key::endpoints, kWhat);
   return p;
 }
 

@@ -1,5 +1,7 @@
 #include "rsd_model/status.hpp"
 
+#include "read_json.hpp"
+
 namespace rsd::model {
 
 namespace {
@@ -24,39 +26,9 @@ constexpr const char* generation = "generation";
 constexpr const char* usb = "usb";
 }  // namespace key
 
-const nlohmann::json& member(const nlohmann::json& doc, const char* name, const char* what) {
-  const auto it = doc.find(name);
-  if (it == doc.end()) throw MalformedDocument(std::string(what) + " has no \"" + name + "\"");
-  return *it;
-}
-
-std::string text(const nlohmann::json& doc, const char* name, const char* what) {
-  const auto& v = member(doc, name, what);
-  if (!v.is_string()) throw MalformedDocument(std::string(what) + ": \"" + name + "\" is not a string");
-  return v.get<std::string>();
-}
-
-std::uint64_t count_value(const nlohmann::json& v, const std::string& name, const char* what) {
-  if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<std::int64_t>() >= 0))
-    throw MalformedDocument(std::string(what) + ": \"" + name + "\" is not a count");
-  return v.get<std::uint64_t>();
-}
-
-std::uint64_t count(const nlohmann::json& doc, const char* name, const char* what) {
-  return count_value(member(doc, name, what), name, what);
-}
-
-bool flag(const nlohmann::json& doc, const char* name, const char* what) {
-  const auto& v = member(doc, name, what);
-  if (!v.is_boolean()) throw MalformedDocument(std::string(what) + ": \"" + name + "\" is not true or false");
-  return v.get<bool>();
-}
-
-void want_object(const nlohmann::json& doc, const char* what) {
-  if (!doc.is_object()) throw MalformedDocument(std::string(what) + " is not a JSON object");
-}
-
 }  // namespace
+
+using namespace read_json;
 
 nlohmann::json to_json(const DomainStatus& s) {
   nlohmann::json rejected = nlohmann::json::object();

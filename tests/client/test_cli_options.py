@@ -7,6 +7,7 @@ and a bad RS_DISCOVERY_ENDPOINT named."""
 import json
 import re
 import socket
+import signal
 import subprocess
 import threading
 import time
@@ -100,21 +101,30 @@ def test_watch_says_what_changed_and_reports_reconnects(daemon, realdds_server, 
     sock = str(tmp_path / "watch.sock")
     d = daemon([domain], socket=sock)
     wait_for(lambda: len(d.devices()) == 1, 20, what="the camera")
-    watch = subprocess.Popen([CLI, "--endpoint", "unix:" + sock, "watch", "-c", "2", "-t", "60"],
+    # --initial: the camera there now comes first, so its line says the watch is live.
+    watch = subprocess.Popen([CLI, "--endpoint", "unix:" + sock, "watch", "--initial"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(0.5)  # no event to wait for: give the watch its start (a late start only delays the change)
-    # A second server announces the camera with newer firmware: the device shows its
-    # latest announcer, a `changed` event (realdds broadcasts once per server).
-    second = realdds_server(domain, [dict(info, **{"fw-version": "5.16.1.0"})], name="second-server")
-    wait_for(lambda: d.devices()[0]["fw-version"] == "5.16.1.0", 20, what="the new firmware in the table")
+    lines, errors = [], []
+    readers = [threading.Thread(target=lambda: lines.extend(iter(watch.stdout.readline, "")), daemon=True),
+               threading.Thread(target=lambda: errors.extend(iter(watch.stderr.readline, "")), daemon=True)]
+    for r in readers:
+        r.start()
+    wait_for(lambda: any(" added " in x for x in lines), 20, what="the watch's first line")
     # The daemon goes away and comes back: the watch says so on stderr, and goes on.
     d.stop()
     d2 = daemon([domain], socket=sock)
     wait_for(lambda: len(d2.devices()) == 1, 20, what="the camera in the restarted daemon")
-    second.kill()  # the second change: the device shows the first server's announcement again
-    out, err = watch.communicate(timeout=60)
-    assert watch.returncode == 0, err
-    changed = next(line for line in out.splitlines() if " changed " in line)
+    # A second server announces the camera with newer firmware: the device shows its
+    # latest announcer, a `changed` event (realdds broadcasts once per server).
+    realdds_server(domain, [dict(info, **{"fw-version": "5.16.1.0"})], name="second-server")
+    wait_for(lambda: d2.devices()[0]["fw-version"] == "5.16.1.0", 20, what="the new firmware in the table")
+    changed = wait_for(lambda: next((x for x in lines if " changed " in x and "5.16.1.0" in x), None), 20,
+                       what="the watch's changed line")
+    watch.send_signal(signal.SIGINT)  # a user's Ctrl-C ends it cleanly
+    assert watch.wait(30) == 0, errors
+    for r in readers:
+        r.join(10)  # to the end of its output
+    err = "".join(errors)
     assert "fw-version 5.16.0.1 \u2192 5.16.1.0" in changed
     assert re.match(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d{3} changed ", changed)
     assert "lost the daemon, reconnecting" in err and "connected again" in err
