@@ -82,10 +82,14 @@ class Report {
   std::vector<Finding> findings_;
 };
 
-// The UDP ports of DDS domain d (the RTPS port mapping): 7400 + 250 d upwards.
+// The UDP ports of DDS domain d (the RTPS port mapping): 7400 + 250 d upwards. The
+// daemon's Cyclone DDS receives unicast on a port of its own choosing besides
+// (measured: dropping the domain's range on the daemon's host left discovery
+// working through it), so a firewall is best opened by address.
 std::string ports_of(int domain) {
   const int base = 7400 + 250 * domain;
-  return "UDP " + std::to_string(base) + "-" + std::to_string(base + 249) + " (domain " + std::to_string(domain) + ")";
+  return "UDP " + std::to_string(base) + "-" + std::to_string(base + 249) + " (domain " + std::to_string(domain) +
+         "; Cyclone DDS adds a port of its choosing unless ParticipantIndex is set)";
 }
 
 // ---- this host's network ---------------------------------------------------------------
@@ -245,10 +249,12 @@ void check_participants(Report& r, const std::vector<rsdiscovery::Participant>& 
   if (alive == 0) {
     std::vector<std::string> names;
     for (int d : ids) names.push_back(std::to_string(d));
+    std::vector<std::string> ports;
+    for (int d : ids) ports.push_back(ports_of(d));
     r.add(Verdict::warn, "network",
           "nobody else is heard on domain" + std::string(ids.size() == 1 ? " " : "s ") + join(names, ", ") +
-              ": the cameras are on another domain, or multicast discovery does not reach this host "
-              "(see the multicast and interface lines)");
+              ": the cameras are on another domain, a firewall drops " + join(ports, ", ") +
+              ", or multicast discovery does not reach this host (see the multicast and interface lines)");
   } else {
     r.add(Verdict::ok, "network", std::to_string(alive) + " participant" + (alive == 1 ? "" : "s") + " heard, " +
                                       std::to_string(servers) + " announcing cameras ('rs-discover participants')");

@@ -1,8 +1,9 @@
 """`rs-discover doctor` on networks broken the usual ways (issue 13), reproduced with
 network namespaces and nftables: a realdds server on another "host" behind a firewall
 that lets discovery multicast in but drops the unicast exchange; one whose first
-announcement gets through and nothing after; a host with no multicast route; cameras
-on another DDS domain. Each time the doctor must name the cause (and exit 1), and on
+announcement gets through and nothing after; a host firewall dropping UDP from the
+camera's network (those three with nftables); a host with no multicast route; cameras on another
+DDS domain. Each time the doctor must name the cause (and exit 1), and on
 the healthy network say nothing is wrong (exit 0)."""
 import json
 import os
@@ -84,6 +85,24 @@ def test_heard_once_then_never_again(free_domain, daemon, realdds_server, net):
         status, findings = doctor(d, net)
         return status == 1 and said(findings, "warn", "firewall", "'flaky-server'", "heard once and lost after its lease")
     wait_for(blamed, 30, interval=1.0, what="the doctor naming the participant heard once")
+
+
+def test_udp_from_the_cameras_network_dropped_on_this_host(free_domain, daemon, realdds_server, net):
+    # The daemon's host drops every UDP packet from the camera's link (a host firewall).
+    # Dropping only the domain's ports is not enough to hide a camera: the daemon's
+    # Cyclone DDS also receives unicast on a port of its own choosing (measured).
+    net.exec(net.host, "nft", "-f", "-", input=(
+        "table inet rsdfw {\n"
+        "  chain in { type filter hook input priority -10; iifname \"rsdv0\" meta l4proto udp drop; }\n"
+        "}\n"))
+    realdds_server(free_domain, [device_info(6)], name="dropped-server", prefix=net.prefix(net.camera))
+    d = daemon([free_domain], http=False, prefix=net.prefix(net.host))
+    base = 7400 + 250 * free_domain
+    status, findings = doctor(d, net)
+    assert status == 1, [f["text"] for f in findings if f["topic"] in ("network", "firewall")]
+    assert said(findings, "warn", "network", f"nobody else is heard on domain {free_domain}",
+                f"a firewall drops UDP {base}-{base + 249}")
+    assert d.devices() == []
 
 
 def test_no_multicast_route(free_domain, daemon, realdds_server, net):
