@@ -123,3 +123,29 @@ def test_cameras_on_another_domain(domains, daemon, realdds_server):
     assert said(findings, "warn", "network", f"nobody else is heard on domain {mine}", "another domain")
     assert said(findings, "ok", "domains", f"DDS domain {mine} (running)")
     assert said(findings, "info", "domains", "domain 0 is not among them")
+
+
+def test_one_topic_root_from_two_servers(free_domain, daemon, realdds_server):
+    camera = device_info(7)
+    realdds_server(free_domain, [camera], name="first-server")
+    realdds_server(free_domain, [camera], name="second-server")
+    d = daemon([free_domain])
+
+    def blamed():
+        status, findings = doctor(d)
+        return status == 1 and said(findings, "fail", "topic-root", camera["topic-root"], "announced by 2 servers",
+                                    "'first-server'", "'second-server'")
+    wait_for(blamed, 20, interval=0.5, what="the doctor naming the two servers")
+
+
+def test_a_link_local_address_is_named(free_domain, daemon, realdds_server, net):
+    # The camera's host got no address from DHCP: it has only a link-local one beside
+    # (here besides the test network's, so the daemon still hears it).
+    net.exec(net.camera, "ip", "addr", "add", "169.254.23.2/16", "dev", "rsdv1")
+    realdds_server(free_domain, [device_info(8)], name="autoip-server", prefix=net.prefix(net.camera))
+    d = daemon([free_domain], http=False, prefix=net.prefix(net.host))
+
+    def named():
+        status, findings = doctor(d, net)
+        return status == 1 and said(findings, "warn", "addresses", "'autoip-server'", "link-local", "DHCP")
+    wait_for(named, 20, interval=0.5, what="the doctor naming the link-local address")
