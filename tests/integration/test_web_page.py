@@ -65,6 +65,7 @@ def test_live_table_details_description_and_network(daemon, realdds_server, free
     wait_for(lambda: len(d.devices()) == 1, 15, what="the daemon listing the camera")
     took = wait_rows(browser, lambda r: "Intel RealSense D455 web" in r, 5, "the camera on the page")
     assert took <= 1.0, f"the page showed the camera {took:.2f} s after the daemon listed it"
+    print(f"page: camera shown {took * 1000:.0f} ms after the daemon listed it")
     row = rows(browser)["Intel RealSense D455 web"]
     assert camera["serial"] in row["text"] and f"domain {free_domain}" in row["text"] and "ok" in row["text"]
 
@@ -100,6 +101,7 @@ def test_live_table_details_description_and_network(daemon, realdds_server, free
     wait_for(lambda: dds_gone(d, camera), 10, what="the daemon dropping the camera")
     took = wait_rows(browser, lambda r: "Intel RealSense D455 web" not in r, 5, "the camera gone from the page")
     assert took <= 1.0, f"the page dropped the camera {took:.2f} s after the daemon did"
+    print(f"page: camera gone {took * 1000:.0f} ms after the daemon dropped it")
     assert "1 camera" in browser.find_element(By.ID, "health").text or "(1)" in browser.find_element(By.ID, "count").text
 
 
