@@ -12,9 +12,15 @@ import subprocess
 import threading
 import time
 
+import os
+import sys
+
 import pytest
-from client_util import CLI, DOMAIN_RANGE, rs_discover
+from client_util import CLI, DOMAIN_RANGE, SOURCE, rs_discover
 from conftest import device_info, free_port, wait_for
+
+sys.path.insert(0, os.path.join(SOURCE, "client", "python", "src"))
+import rsdiscovery  # noqa: E402  (the package as shipped)
 
 
 @pytest.fixture
@@ -68,6 +74,13 @@ def test_filters_by_serial_name_and_address(two_domains):
     # The daemon filters: the CLI's JSON is the API's answer for the same query.
     api = d.get_json(f"/v1/devices?name=D435")["devices"]
     assert json.loads(rs_discover("list", "--json", "--name", "D435", endpoint=ep).stdout)["devices"] == api
+    # The Python package passes the same filters to the daemon.
+    assert rsdiscovery.list_devices(name="d435", endpoint=ep) == api
+    assert [x["serial"] for x in rsdiscovery.list_devices(serial=first["serial"], endpoint=ep)] == [first["serial"]]
+    assert len(rsdiscovery.list_devices(address=address, endpoint=ep)) == 2
+    assert rsdiscovery.Client(ep).wait_for(timeout=5, count=1, name="D435")["serial"] == second["serial"]
+    with pytest.raises(ValueError):
+        rsdiscovery.list_devices(serial="", endpoint=ep)
 
 
 def test_get_several_format_and_no_headers(two_domains):

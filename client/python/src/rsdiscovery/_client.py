@@ -168,7 +168,8 @@ def _connect_error(ep: Endpoint, exc: OSError) -> RSDiscoveryError:
     return DaemonNotRunning(f"cannot reach rs-discoveryd at {where}: {exc}")
 
 
-def _check_filters(domain: Optional[int], product_line: Optional[str], source: Optional[str]) -> None:
+def _check_filters(domain: Optional[int], product_line: Optional[str], source: Optional[str],
+                   serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None) -> None:
     """Bad filter arguments are the caller's mistake: a ValueError at once, never a
     request the daemon would answer with 400 (or, worse, one that filters nothing)."""
     if domain is not None and (isinstance(domain, bool) or not isinstance(domain, int) or not 0 <= domain <= 232):
@@ -177,6 +178,9 @@ def _check_filters(domain: Optional[int], product_line: Optional[str], source: O
         raise ValueError(f"product_line must be a non-empty string such as 'D400', not {product_line!r}")
     if source is not None and (not isinstance(source, str) or source.lower() not in ("dds", "usb")):
         raise ValueError(f"source must be 'dds' or 'usb', not {source!r}")
+    for key, value in (("serial", serial), ("name", name), ("address", address)):
+        if value is not None and (not isinstance(value, str) or not value.strip()):
+            raise ValueError(f"{key} must be a non-empty string, not {value!r}")
 
 
 def _check_seconds(name: str, value: Any, allow_zero: bool = True) -> None:
@@ -184,15 +188,17 @@ def _check_seconds(name: str, value: Any, allow_zero: bool = True) -> None:
         raise ValueError(f"{name} must be a number of seconds {'>= 0' if allow_zero else '> 0'}, not {value!r}")
 
 
-def _query(domain: Optional[int], product_line: Optional[str], source: Optional[str]) -> str:
-    _check_filters(domain, product_line, source)
+def _query(domain: Optional[int], product_line: Optional[str], source: Optional[str],
+           serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None) -> str:
+    """The filters as the daemon takes them (it filters; the package never filters again)."""
+    _check_filters(domain, product_line, source, serial, name, address)
     q: List[Tuple[str, str]] = []
     if domain is not None:
         q.append(("domain", str(domain)))
-    if product_line:
-        q.append(("product-line", product_line))
-    if source:
-        q.append(("source", source))
+    for key, value in (("product-line", product_line), ("source", source), ("serial", serial), ("name", name),
+                       ("address", address)):
+        if value:
+            q.append((key, value))
     return ("?" + urllib.parse.urlencode(q)) if q else ""
 
 
@@ -296,8 +302,9 @@ class Watcher:
     def __init__(self, client: "Client", initial: bool = False, last_event_id: Optional[int] = None,
                  reconnect: bool = True, idle_timeout: float = 60.0, max_reconnect_delay: float = 2.0,
                  domain: Optional[int] = None, product_line: Optional[str] = None,
-                 source: Optional[str] = None, complete_timeout: float = 10.0) -> None:
-        _check_filters(domain, product_line, source)
+                 source: Optional[str] = None, complete_timeout: float = 10.0, *, serial: Optional[str] = None,
+                 name: Optional[str] = None, address: Optional[str] = None) -> None:
+        _check_filters(domain, product_line, source, serial, name, address)
         _check_seconds("complete_timeout", complete_timeout)
         _check_seconds("idle_timeout", idle_timeout, allow_zero=False)
         if last_event_id is not None and (isinstance(last_event_id, bool) or not isinstance(last_event_id, int)
@@ -307,7 +314,7 @@ class Watcher:
         self._complete_timeout = complete_timeout
         # The generation of the last list: stream events up to it are in the view already.
         self._listed_at = 0
-        self._filters = (domain, product_line, source)
+        self._filters = (domain, product_line, source, serial, name, address)
         self._initial = initial
         self._reconnect = reconnect
         self._idle = idle_timeout
@@ -634,14 +641,16 @@ class Client:
         return doc
 
     def list_devices(self, domain: Optional[int] = None, product_line: Optional[str] = None,
-                     source: Optional[str] = None) -> List[Device]:
+                     source: Optional[str] = None, *, serial: Optional[str] = None, name: Optional[str] = None,
+                     address: Optional[str] = None) -> List[Device]:
         """The devices the daemon knows now, optionally filtered (DDS domain, product line,
-        ``dds``/``usb``). Waits for the complete table first (``complete_timeout``)."""
-        return self._list(domain, product_line, source, self._complete_deadline())
+        ``dds``/``usb``, serial, a part of the name, an address of the camera's server; the
+        daemon filters, values in any case). Waits for the complete table first
+        (``complete_timeout``)."""
+        return self._list((domain, product_line, source, serial, name, address), self._complete_deadline())
 
-    def _list(self, domain: Optional[int], product_line: Optional[str], source: Optional[str],
-              deadline: float) -> List[Device]:
-        path = "/v1/devices" + _query(domain, product_line, source)
+    def _list(self, filters: Tuple[Any, ...], deadline: float) -> List[Device]:
+        path = "/v1/devices" + _query(*filters)
         devices = self._get_complete_json(path, deadline).get("devices")
         if not isinstance(devices, list) or not all(isinstance(d, dict) and "id" in d for d in devices):
             raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: no list of devices")
@@ -752,7 +761,8 @@ class Client:
 
     def watch(self, initial: bool = False, last_event_id: Optional[int] = None, reconnect: bool = True,
               domain: Optional[int] = None, product_line: Optional[str] = None,
-              source: Optional[str] = None, complete_timeout: float = 10.0) -> Iterator[Event]:
+              source: Optional[str] = None, complete_timeout: float = 10.0, *, serial: Optional[str] = None,
+              name: Optional[str] = None, address: Optional[str] = None) -> Iterator[Event]:
         """A generator of :class:`Event` that runs until closed (``break`` out, or ``close()``).
 
         It resumes by itself after a disconnect or a daemon restart, reporting what
@@ -763,12 +773,14 @@ class Client:
         before and after the restart is not reported removed and added again.
         """
         w = Watcher(self, initial=initial, last_event_id=last_event_id, reconnect=reconnect, domain=domain,
-                    product_line=product_line, source=source, complete_timeout=complete_timeout)
+                    product_line=product_line, source=source, complete_timeout=complete_timeout, serial=serial,
+                    name=name, address=address)
         return _generate(w)
 
     def wait_for(self, predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0,
                  count: int = 1, domain: Optional[int] = None, product_line: Optional[str] = None,
-                 source: Optional[str] = None) -> Device:
+                 source: Optional[str] = None, *, serial: Optional[str] = None, name: Optional[str] = None,
+                 address: Optional[str] = None) -> Device:
         """Waits until ``count`` devices matching the filters and ``predicate`` are present;
         returns the first of them. Raises :class:`TimeoutError` (the built-in) when
         ``timeout`` seconds pass first. Like :meth:`list_devices` it looks at the complete
@@ -778,18 +790,20 @@ class Client:
         _check_seconds("timeout", timeout)
         if isinstance(count, bool) or not isinstance(count, int) or count < 1:
             raise ValueError(f"count must be a whole number >= 1, not {count!r}")
-        _check_filters(domain, product_line, source)
+        filters = (domain, product_line, source, serial, name, address)
+        _check_filters(*filters)
 
         def hit(devices: List[Device]) -> List[Device]:
             return [d for d in devices if predicate is None or predicate(d)]
 
         deadline = time.monotonic() + timeout
         complete_by = min(deadline, self._complete_deadline())
-        now = hit(self._list(domain, product_line, source, complete_by))
+        now = hit(self._list(filters, complete_by))
         if len(now) >= count:
             return now[0]
         with Watcher(self, domain=domain, product_line=product_line, source=source,
-                     complete_timeout=max(complete_by - time.monotonic(), 0)) as w:
+                     complete_timeout=max(complete_by - time.monotonic(), 0), serial=serial, name=name,
+                     address=address) as w:
             while True:
                 now = hit(w.devices())
                 if len(now) >= count:
@@ -815,10 +829,14 @@ def _generate(w: Watcher) -> Iterator[Event]:
 # ---- module-level shortcuts ----------------------------------------------------------------
 
 def list_devices(domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
-                 endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0) -> List[Device]:
+                 endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0, *,
+                 serial: Optional[str] = None, name: Optional[str] = None,
+                 address: Optional[str] = None) -> List[Device]:
     """The devices the daemon knows now (see :meth:`Client.list_devices`; ``complete_timeout=0``
     does not wait for the daemon's first discovery)."""
-    return Client(endpoint, complete_timeout=complete_timeout).list_devices(domain, product_line, source)
+    return Client(endpoint, complete_timeout=complete_timeout).list_devices(domain, product_line, source,
+                                                                            serial=serial, name=name,
+                                                                            address=address)
 
 
 def get_device(device_id: str, endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0) -> Device:
@@ -849,15 +867,18 @@ def health(endpoint: "Endpoint | str | None" = None) -> Dict[str, Any]:
 
 def wait_for(predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0, count: int = 1,
              domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
-             endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0) -> Device:
+             endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0, *,
+             serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None) -> Device:
     """Waits for a device; raises :class:`TimeoutError` (see :meth:`Client.wait_for`)."""
     return Client(endpoint, complete_timeout=complete_timeout).wait_for(predicate, timeout, count, domain,
-                                                                        product_line, source)
+                                                                        product_line, source, serial=serial,
+                                                                        name=name, address=address)
 
 
 def watch(initial: bool = False, last_event_id: Optional[int] = None, reconnect: bool = True,
           domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
-          endpoint: "Endpoint | str | None" = None, complete_timeout: float = 10.0) -> Iterator[Event]:
+          endpoint: "Endpoint | str | None" = None, complete_timeout: float = 10.0, *,
+          serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None) -> Iterator[Event]:
     """A resumable generator of events (see :meth:`Client.watch`)."""
     return Client(endpoint).watch(initial, last_event_id, reconnect, domain, product_line, source,
-                                  complete_timeout)
+                                  complete_timeout, serial=serial, name=name, address=address)
