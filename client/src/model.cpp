@@ -42,6 +42,17 @@ using nlohmann::json;
   throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: " + what);
 }
 
+// A document read through the shared model (rsd_model): its MalformedDocument
+// becomes the library's Error(malformed_reply), for every document alike.
+template <class Read>
+auto read_model(Read read, const json& doc) -> decltype(read(doc)) {
+  try {
+    return read(doc);
+  } catch (const rsd::model::MalformedDocument& e) {
+    malformed(e.what());
+  }
+}
+
 }  // namespace
 
 // The daemon's model (proto/model) reads the document; this only maps it onto the
@@ -106,12 +117,7 @@ std::vector<CameraOption> public_options(const std::vector<rsd::model::Option>& 
 }  // namespace
 
 Description description_from_json(const json& doc) {
-  rsd::model::Description m;
-  try {
-    m = rsd::model::description_from_json(doc);
-  } catch (const rsd::model::MalformedDocument& e) {
-    malformed(e.what());
-  }
+  auto m = read_model(rsd::model::description_from_json, doc);
   Description d;
   for (const auto& s : m.streams) {
     CameraStream st;
@@ -130,12 +136,7 @@ Description description_from_json(const json& doc) {
 }
 
 DomainStatus domain_from_json(const json& doc) {
-  rsd::model::DomainStatus m;
-  try {
-    m = rsd::model::domain_status_from_json(doc);
-  } catch (const rsd::model::MalformedDocument& e) {
-    malformed(e.what());
-  }
+  auto m = read_model(rsd::model::domain_status_from_json, doc);
   DomainStatus s;
   s.domain = m.domain;
   s.state = std::string(rsd::model::to_string(m.state));
@@ -149,12 +150,7 @@ DomainStatus domain_from_json(const json& doc) {
 }
 
 Participant participant_from_json(const json& doc) {
-  rsd::model::Participant m;
-  try {
-    m = rsd::model::participant_from_json(doc);
-  } catch (const rsd::model::MalformedDocument& e) {
-    malformed(e.what());
-  }
+  auto m = read_model(rsd::model::participant_from_json, doc);
   Participant p;
   p.domain = m.domain;
   p.guid = std::move(m.guid);
@@ -177,12 +173,7 @@ Participant participant_from_json(const json& doc) {
 }
 
 Health health_from_json(const json& doc) {
-  rsd::model::Health m;
-  try {
-    m = rsd::model::health_from_json(doc);
-  } catch (const rsd::model::MalformedDocument& e) {
-    malformed(e.what());
-  }
+  auto m = read_model(rsd::model::health_from_json, doc);
   Health h;
   h.status = m.status;
   h.version = m.version;

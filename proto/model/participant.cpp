@@ -52,15 +52,11 @@ int hex_digit(char c) {
 }  // namespace
 
 std::optional<Vendor> parse_vendor(std::string_view name) {
-  for (auto v : {Vendor::fast_dds, Vendor::cyclone_dds, Vendor::rti_connext, Vendor::opendds, Vendor::other})
-    if (to_string(v) == name) return v;
-  return std::nullopt;
+  return parse_name(name, {Vendor::fast_dds, Vendor::cyclone_dds, Vendor::rti_connext, Vendor::opendds, Vendor::other});
 }
 
 std::optional<ParticipantState> parse_participant_state(std::string_view name) {
-  for (auto s : {ParticipantState::alive, ParticipantState::gone})
-    if (to_string(s) == name) return s;
-  return std::nullopt;
+  return parse_name(name, {ParticipantState::alive, ParticipantState::gone});
 }
 
 std::string vendor_id_of(std::string_view guid) {

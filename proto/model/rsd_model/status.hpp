@@ -4,6 +4,8 @@
 // them through from_json: one spelling of every key, as for devices (device.hpp).
 #pragma once
 
+#include "rsd_model/names.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
@@ -32,10 +34,8 @@ constexpr std::string_view to_string(DomainState state) {
 }
 
 constexpr std::optional<DomainState> parse_domain_state(std::string_view name) {
-  for (auto s : {DomainState::settling, DomainState::running, DomainState::rebuilding, DomainState::failed,
-                 DomainState::stopped})
-    if (to_string(s) == name) return s;
-  return std::nullopt;
+  return parse_name(name, {DomainState::settling, DomainState::running, DomainState::rebuilding,
+                           DomainState::failed, DomainState::stopped});
 }
 
 struct DomainStatus {
