@@ -186,6 +186,8 @@ rsdiscovery::ClientOptions client_options(const ParsedArgs& args) {
     options.complete_timeout =
         std::chrono::milliseconds(static_cast<long long>(args.get_seconds("complete-timeout", 0) * 1000));
   }
+  // A busy daemon is waited for as it asks; the user sees why the command pauses.
+  options.on_busy = [](const std::string& why) { std::fprintf(stderr, "rs-discover: %s\n", why.c_str()); };
   return options;
 }
 

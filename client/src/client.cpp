@@ -186,6 +186,10 @@ Description Client::describe(const std::string& id, std::chrono::milliseconds ti
       }
       const auto again = Clock::now() + std::chrono::seconds(seconds);
       if (again < deadline) {
+        if (impl_->options.on_busy)
+          impl_->options.on_busy("rs-discoveryd at " + impl_->endpoint.to_string() + " cannot describe '" + id +
+                                 "' yet: " + (message.empty() ? "HTTP 503" : message) + "; asking again in " +
+                                 std::to_string(seconds) + " s");
         std::this_thread::sleep_until(again);
         continue;
       }

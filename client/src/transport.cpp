@@ -375,6 +375,9 @@ Reply Transport::get(const std::string& path, std::optional<std::chrono::millise
     }
     const auto again = Clock::now() + std::chrono::seconds(seconds);
     if (again > busy_until) return reply;
+    if (options_.on_busy)
+      options_.on_busy(std::string(status_error(path, reply).what()) + "; asking again in " +
+                       std::to_string(seconds) + " s");
     while (Clock::now() < again) {  // in slices, so cancel() is not kept waiting
       if (cancelled_) throw Error(ErrorCode::cancelled, "cancelled");
       std::this_thread::sleep_for(std::min<Clock::duration>(again - Clock::now(), std::chrono::milliseconds(50)));

@@ -218,6 +218,11 @@ struct ServerLoop::Impl {
   std::atomic<bool> stopping{false};
   std::atomic<Clock::rep> stop_deadline{0};
   std::atomic<std::size_t> connections{0};
+  // Held from accept4 to counting what was accepted. Both reactors take from the same
+  // listeners; without it one could count its accept after the other had already judged a
+  // later client against the lower number, letting a client in past max_connections
+  // (seen under ASan: the third client of a limit of 2 was served).
+  std::mutex accepting;
   std::atomic<std::size_t> streams{0};
   std::atomic<std::size_t> blocking{0};
   std::atomic<std::uint64_t> refused{0};
@@ -382,6 +387,7 @@ void Reactor::begin_stop(Clock::time_point now) {
 
 void Reactor::accept_all(ListenerHandle& l, Clock::time_point now) {
   for (;;) {
+    std::unique_lock accepting(loop.accepting);
     const int fd = ::accept4(l.spec->fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) {
       if (errno == EINTR || errno == ECONNABORTED) continue;
@@ -396,6 +402,7 @@ void Reactor::accept_all(ListenerHandle& l, Clock::time_point now) {
       return;
     }
     if (loop.connections.load() >= loop.options.max_connections) {
+      accepting.unlock();
       // Full: say so at once (the client retries) rather than leave it hanging.
       const auto reply = canned_response(
           503, "too many clients (limit " + std::to_string(loop.options.max_connections) + "); retry later", true);
@@ -405,6 +412,7 @@ void Reactor::accept_all(ListenerHandle& l, Clock::time_point now) {
       continue;
     }
     ++loop.connections;
+    accepting.unlock();
     auto conn = std::make_unique<Connection>(fd, *l.spec);
     conn->deadline = now + loop.options.client_timeout;
     conn->interest = EPOLLIN | EPOLLRDHUP;

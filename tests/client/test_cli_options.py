@@ -148,16 +148,33 @@ def test_watch_says_what_changed_and_reports_reconnects(daemon, realdds_server, 
 def test_a_busy_daemon_is_asked_again_after_retry_after(daemon, domains):
     domain = domains.take(*DOMAIN_RANGE)
     d = daemon([domain], extra=["--max-clients", "2"])
+
+    def open_connections():
+        text = d.request("/metrics")[2].decode()
+        return int(re.search(r"^rsd_api_connections (\d+)$", text, re.M).group(1))
+
+    # The fixture's own requests close on the client's side first: until the daemon has
+    # seen them go they count, and one of the two below would be refused instead of held.
+    wait_for(lambda: open_connections() == 1, 10, what="only the /metrics request itself open")
     held = []
     for _ in range(2):  # the daemon's two client slots, taken
         s = socket.socket(socket.AF_UNIX)
         s.connect(d.socket)
         held.append(s)
+    third = socket.socket(socket.AF_UNIX)  # a third client is turned away at once
+    third.settimeout(5)
+    third.connect(d.socket)
+    refusal = b""
+    while chunk := third.recv(4096):  # the daemon answers before any request, then closes
+        refusal += chunk
+    third.close()
+    assert refusal.startswith(b"HTTP/1.1 503 ") and b"\r\nRetry-After: 1\r\n" in refusal, refusal
     threading.Timer(1.5, lambda: held.pop().close()).start()
     t0 = time.monotonic()
     r = rs_discover("health", endpoint="unix:" + d.socket)
     assert r.returncode == 0, (r.stdout, r.stderr)  # not exit 4 on the 503
-    assert time.monotonic() - t0 >= 1.0  # it waited as told
+    assert time.monotonic() - t0 >= 1.0, (r.stdout, r.stderr)  # it waited as told
+    assert "too many clients (limit 2); retry later; asking again in 1 s" in r.stderr, r.stderr  # and why
     for s in held:
         s.close()
 

@@ -380,6 +380,11 @@ struct ClientOptions {
   // never reported missing just because the daemon has not heard from it yet.
   // 0: answer at once from whatever the table holds.
   std::chrono::milliseconds complete_timeout{5000};
+  // Called each time the daemon answers 503 with Retry-After (at its connection limit,
+  // or making its DDS participant anew) and the library waits as told before asking
+  // again, for up to 10 s in all: a sentence saying why and for how long, for a tool to
+  // show its user. Runs on the calling thread; empty: wait silently.
+  std::function<void(const std::string&)> on_busy;
 };
 
 class RSDISCOVERY_API Client {
