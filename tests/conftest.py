@@ -393,9 +393,9 @@ class EventStream:
 class CyclonePeer(JsonLinesProcess):
     """tests/tools/cyclone_peer.py: PyPI's Cyclone DDS 11 on a flexible topic (see there)."""
 
-    def __init__(self, domain, role, octet, topic):
+    def __init__(self, domain, role, octet, topic, extra=()):
         super().__init__([sys.executable, os.path.join(TESTS_DIR, "tools", "cyclone_peer.py"), "--domain",
-                          str(domain), "--octet", octet, "--topic", topic, role], stdin=subprocess.PIPE)
+                          str(domain), "--octet", octet, "--topic", topic, *extra, role], stdin=subprocess.PIPE)
 
     def next(self, timeout=30):
         import queue
@@ -420,11 +420,12 @@ class CyclonePeer(JsonLinesProcess):
 
 @pytest.fixture
 def cyclone_peer():
-    """cyclone_peer(domain, "writer"|"reader", octet="uint8", topic=device-info) -> CyclonePeer."""
+    """cyclone_peer(domain, "writer"|"reader"|"announcer", octet="uint8", topic=device-info,
+    extra=[more arguments]) -> CyclonePeer."""
     peers = []
 
-    def start(domain, role, octet="uint8", topic="realsense/device-info"):
-        p = CyclonePeer(domain, role, octet, topic)
+    def start(domain, role, octet="uint8", topic="realsense/device-info", extra=()):
+        p = CyclonePeer(domain, role, octet, topic, extra)
         peers.append(p)
         return p
 

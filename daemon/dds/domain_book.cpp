@@ -11,10 +11,6 @@ namespace {
 
 log::RateLimiter g_reject_log;
 
-// realdds gives every participant one writer on device-info that never writes
-// (measured: a server with k devices matches k + 1 writers).
-constexpr int kIdleWritersPerServer = 1;
-
 }  // namespace
 
 std::string participant_of(const std::string& writer_guid) {
@@ -186,6 +182,9 @@ void DomainBook::sweep(const std::set<Handle>& still_matched, const std::string*
   std::set<std::string> with_writers;
   for (const auto& [h, w] : writers_) with_writers.insert(w.identity.participant_guid);
   std::erase_if(silent_retries_, [&](const auto& entry) { return !with_writers.count(entry.first); });
+  const auto of_a_server_gone = [&](const std::string& guid) { return !with_writers.count(participant_of(guid)); };
+  std::erase_if(retried_writers_, of_a_server_gone);
+  std::erase_if(idle_writers_, of_a_server_gone);
 }
 
 void DomainBook::reader_made(Clock::time_point now) {
@@ -217,16 +216,25 @@ DomainBook::Due DomainBook::tick(Clock::time_point now, const std::set<Handle>& 
     reconcile_at_.reset();
     sweep(still_matched, nullptr, now);
   }
-  // Count, per server, the writers that matched a while ago and sent nothing.
-  std::map<std::string, int> silent;  // participant GUID -> such writers
-  for (const auto& [h, w] : writers_)
-    if (!w.sent && now - w.matched_at >= options_.silent_grace) ++silent[w.identity.participant_guid];
-  for (const auto& [p, count] : silent) {
+  // Per server, the writers that matched a while ago and sent nothing, but for
+  // those already known to be idle.
+  std::map<std::string, std::vector<std::string>> silent;  // participant GUID -> such writers
+  for (const auto& [h, w] : writers_) {
+    if (w.sent || now - w.matched_at < options_.silent_grace || idle_writers_.count(w.identity.guid)) continue;
+    if (retried_writers_.erase(w.identity.guid)) {  // silent for the new reader too: it never writes
+      log::debug([&] { return prefix() + "writer " + w.identity.guid + " stayed silent for a new reader: idle"; });
+      idle_writers_.insert(w.identity.guid);
+      continue;
+    }
+    silent[w.identity.participant_guid].push_back(w.identity.guid);
+  }
+  for (const auto& [p, guids] : silent) {
     int& retries = silent_retries_[p];
-    if (count < kIdleWritersPerServer + 1 || retries >= options_.silent_retries) continue;
+    if (retries >= options_.silent_retries) continue;
     ++retries;
-    log::info(prefix() + "server " + p + " has " + std::to_string(count - kIdleWritersPerServer) +
-              " device writer(s) that matched but sent no device-info; making the reader anew so it "
+    retried_writers_.insert(guids.begin(), guids.end());
+    log::info(prefix() + "server " + p + " has " + std::to_string(guids.size()) +
+              " writer(s) that matched but sent no device-info; making the reader anew so it "
               "broadcasts again (try " + std::to_string(retries) + ")");
     due.make_reader_anew = true;
   }
@@ -249,7 +257,7 @@ std::map<std::string, PublisherCounts> DomainBook::publishers(Clock::time_point 
   for (auto& [guid, c] : out) {
     const auto n = per_participant_.find(guid);
     c.devices = n == per_participant_.end() ? 0 : n->second;
-    c.never_announced = c.devices == 0 && c.silent >= static_cast<std::size_t>(kIdleWritersPerServer) + 1;
+    c.never_announced = c.devices == 0 && c.silent > 0;
   }
   return out;
 }

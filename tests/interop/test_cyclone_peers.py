@@ -3,6 +3,8 @@ own libddsc, XTypes type information on every endpoint) writing and reading
 beside the daemon. One such peer used to crash the daemon inside libddsc while it
 parsed the peer's type object (issue 8): the daemon must keep running, take the
 peer's device-info by type name, and keep serving realdds as before."""
+import json
+
 import pytest
 
 from conftest import device_info, wait_for
@@ -57,3 +59,24 @@ def test_cyclone11_writer_and_reader_beside_realdds(free_domain, daemon, realdds
     assert d.healthy()
     realdds.quit()
 
+
+
+def test_a_single_writer_whose_broadcast_was_lost_is_asked_again(free_domain, daemon, cyclone_peer):
+    """A one-device server matches one writer (pyrealdds 2.59.1 in most runs): if
+    the broadcast to the daemon is lost (the discovery race of realdds-wire.md),
+    that single silent writer must make the daemon ask again. The peer here loses
+    its first broadcast on purpose; it announces again, as realdds does, whenever a
+    reader matches. Before, one silent writer was taken for realdds' idle writer and
+    the camera was never listed."""
+    d = daemon([free_domain])
+    camera = device_info(7, name="Lost-broadcast camera")
+    peer = cyclone_peer(free_domain, "announcer", "byte",
+                        extra=["--device", json.dumps(camera), "--lose-first", "1"])
+    assert peer.next() == {"announcing": True}
+    assert peer.next() == {"matched": 1, "sent": False}  # the daemon's reader: broadcast lost
+    # The silent grace (2.5 s), then a new reader: the peer matches it and announces.
+    assert peer.next(timeout=15) == {"matched": 2, "sent": True}
+    wait_for(lambda: d.device_ids() == [dds_id(free_domain, camera)], timeout=5, what="the camera listed")
+    assert "1 writer(s) that matched but sent no device-info" in d.log()
+    peer.close()
+    wait_for(lambda: d.device_ids() == [], what="the camera gone with its writer")

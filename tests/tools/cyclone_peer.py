@@ -16,6 +16,11 @@ another one, so a reader that asks for type objects starts a type lookup.
       {"raw": "HEX", "format": N} is written as one sample, answered {"ok": true}
   cyclone_peer.py --domain D --topic T writer   the same on another flexible topic
       (T = <topic-root>/notification: a server's notifications, made up by the test)
+  cyclone_peer.py --domain D --device JSON [--lose-first N] announcer   plays a
+      realdds server's device writer: writes the device-info each time a reader
+      matches, as realdds does, but for the first N matches, whose broadcast is
+      lost as the race of ../shared/realdds-wire.md loses it; prints
+      {"matched": K, "sent": true|false} per match; stays until stdin closes
   cyclone_peer.py --domain D reader   prints one JSON line per sample it receives
       ({"format": N, "data": "..."}); stays until stdin closes
 """
@@ -83,6 +88,37 @@ def run_writer(participant, topic, flexible):
     return 0
 
 
+def run_announcer(participant, topic, flexible, device, lose_first):
+    import queue
+    matches = queue.Queue()
+
+    class OnMatch(Listener):
+        def on_publication_matched(self, writer, status):
+            if status.current_count_change > 0:
+                matches.put(status.total_count)
+
+    writer = DataWriter(participant, topic, qos=QOS, listener=OnMatch())
+    data = list(json.dumps(device).encode())
+    emit({"announcing": True})
+
+    def serve():  # writes outside Cyclone's listener thread
+        while True:
+            total = matches.get()
+            if total is None:
+                return
+            sent = total > lose_first
+            if sent:
+                writer.write(flexible(data_format=flexible_data_format(0), version=[0, 0, 0, 0], data=data))
+            emit({"matched": total, "sent": sent})
+
+    worker = threading.Thread(target=serve, daemon=True)
+    worker.start()
+    sys.stdin.read()  # until the test closes our stdin
+    matches.put(None)
+    worker.join(5)
+    return 0
+
+
 def run_reader(participant, topic):
     class OnData(Listener):
         def on_data_available(self, reader):
@@ -103,13 +139,17 @@ def main():
     ap.add_argument("--octet", choices=["byte", "uint8"], default="uint8")
     ap.add_argument("--topic", default="realsense/device-info",
                     help="another flexible topic, e.g. <topic-root>/notification to play a server's side")
-    ap.add_argument("role", choices=["writer", "reader"])
+    ap.add_argument("--device", type=json.loads, help="announcer: the device-info it announces")
+    ap.add_argument("--lose-first", type=int, default=0, help="announcer: matches whose broadcast is lost")
+    ap.add_argument("role", choices=["writer", "reader", "announcer"])
     args = ap.parse_args()
     flexible = flexible_type(byte if args.octet == "byte" else uint8)
     participant = DomainParticipant(args.domain)
     topic = Topic(participant, args.topic, flexible, qos=QOS)
     if args.role == "writer":
         return run_writer(participant, topic, flexible)
+    if args.role == "announcer":
+        return run_announcer(participant, topic, flexible, args.device, args.lose_first)
     return run_reader(participant, topic)
 
 

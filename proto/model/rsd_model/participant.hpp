@@ -80,9 +80,9 @@ struct Participant {
   // heard over multicast while the unicast exchange that follows never got
   // through (a firewall dropping the domain's unicast ports, measured).
   std::size_t endpoints = 0;
-  // A realdds server whose device writers matched and never announced a device:
-  // two or more silent writers and no device (the cause is on the network path,
-  // or the server is stuck; the daemon has already asked it to announce again).
+  // A realdds server whose device-info writers matched and never announced a
+  // device: silent writers and no device (the cause is on the network path, or
+  // the server is stuck; the daemon has already asked it to announce again).
   bool never_announced = false;
 };
 
