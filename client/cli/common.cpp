@@ -6,6 +6,8 @@
 #include <getopt.h>
 #include <unistd.h>
 
+#include <charconv>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -293,25 +295,42 @@ std::string device_sources(const rsdiscovery::Device& d) {
 }
 
 std::optional<double> parse_iso8601(const std::string& text) {
-  int y, mo, d, h, mi;
-  double s;
-  char tail[8] = {0};
-  if (std::sscanf(text.c_str(), "%4d-%2d-%2dT%2d:%2d:%lf%7s", &y, &mo, &d, &h, &mi, &s, tail) < 6)
+  // "2026-11-24T10:09:54.065Z", "+02:00"-style offsets too. By hand with
+  // from_chars and the chrono calendar: sscanf and timegm for the AGE column took
+  // a sixth of a cold `rs-discover list` of 100 cameras (callgrind).
+  const char* p = text.data();
+  const char* const end = p + text.size();
+  const auto number = [&](int digits, int& out) {
+    if (end - p < digits) return false;
+    const auto r = std::from_chars(p, p + digits, out);
+    if (r.ec != std::errc() || r.ptr != p + digits) return false;
+    p += digits;
+    return true;
+  };
+  const auto expect = [&](char c) { return p < end && *p++ == c; };
+  int y, mo, d, h, mi, whole_s;
+  if (!number(4, y) || !expect('-') || !number(2, mo) || !expect('-') || !number(2, d) || !expect('T') ||
+      !number(2, h) || !expect(':') || !number(2, mi) || !expect(':') || !number(2, whole_s))
     return std::nullopt;
-  std::tm tm{};
-  tm.tm_year = y - 1900;
-  tm.tm_mon = mo - 1;
-  tm.tm_mday = d;
-  tm.tm_hour = h;
-  tm.tm_min = mi;
-  time_t whole = timegm(&tm);
-  if (whole == static_cast<time_t>(-1)) return std::nullopt;
-  double offset = 0;  // "Z" or none: UTC; "+02:00" style offsets too
-  if (tail[0] == '+' || tail[0] == '-') {
-    int oh = 0, om = 0;
-    if (std::sscanf(tail + 1, "%2d:%2d", &oh, &om) >= 1) offset = (oh * 3600 + om * 60) * (tail[0] == '+' ? 1 : -1);
+  const std::chrono::year_month_day date{std::chrono::year{y}, std::chrono::month{static_cast<unsigned>(mo)},
+                                         std::chrono::day{static_cast<unsigned>(d)}};
+  if (!date.ok() || h > 23 || mi > 59 || whole_s > 60) return std::nullopt;
+  double fraction = 0;
+  if (p < end && *p == '.') {
+    double scale = 0.1;
+    for (++p; p < end && *p >= '0' && *p <= '9'; ++p, scale /= 10) fraction += (*p - '0') * scale;
   }
-  return static_cast<double>(whole) + s - offset;
+  double offset = 0;  // "Z" or none: UTC
+  if (p < end && (*p == '+' || *p == '-')) {
+    const int sign = *p++ == '+' ? 1 : -1;
+    int oh = 0, om = 0;
+    if (!number(2, oh)) return std::nullopt;
+    if (p < end && *p == ':') ++p;
+    if (p < end) number(2, om);
+    offset = sign * (oh * 3600 + om * 60);
+  }
+  const auto days = std::chrono::sys_days{date}.time_since_epoch().count();
+  return static_cast<double>(days) * 86400 + h * 3600 + mi * 60 + whole_s + fraction - offset;
 }
 
 std::string age_since(const std::string& iso8601) {

@@ -2,7 +2,10 @@
 // This file only dispatches; each subcommand is its own cmd_*.cpp.
 #include "common.hpp"
 
+#include <cstdio>
 #include <cstring>
+
+#include <unistd.h>
 
 namespace {
 
@@ -32,6 +35,12 @@ void usage(std::FILE* out) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Output to a pipe or file goes out in large blocks from a buffer that exists
+  // before anything else is allocated: stdio's own, made at the first write after
+  // the device list was parsed and freed, cost a malloc_consolidate (3 % of a cold
+  // `rs-discover list`, callgrind). A terminal keeps its line buffering.
+  static char out_buffer[1 << 16];
+  if (!isatty(STDOUT_FILENO)) std::setvbuf(stdout, out_buffer, _IOFBF, sizeof out_buffer);
   std::vector<std::string> args(argv + 1, argv + argc);
   // Common options may come before the command: move them after it.
   std::vector<std::string> leading;

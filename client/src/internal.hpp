@@ -21,11 +21,18 @@
 namespace rsdiscovery::detail {
 
 // ---- JSON -> public types --------------------------------------------------------
-Device device_from_json(const nlohmann::json& doc);  // throws Error(malformed_reply)
+// `text`: the document as the daemon sent it, kept as Device::json; empty: written
+// anew from `doc`.
+Device device_from_json(const nlohmann::json& doc, std::string text = {});  // throws Error(malformed_reply)
 Description description_from_json(const nlohmann::json& doc);  // throws Error(malformed_reply)
 DomainStatus domain_from_json(const nlohmann::json& doc);
 Health health_from_json(const nlohmann::json& doc);
 Participant participant_from_json(const nlohmann::json& doc);
+
+// The text of each element of the array that member `key` of the JSON object
+// `text` holds, as it stands in `text`; nothing when there is no such array.
+// `text` must already have parsed as JSON: this only finds where things are.
+std::vector<std::string_view> array_member_elements(std::string_view text, std::string_view key);
 
 // The same device document, apart from fields that move without being news
 // ("last-seen"; "first-seen", which a restarted daemon sets anew for a camera that

@@ -181,6 +181,27 @@ TEST(Device, TakesEveryKnownFieldAndKeepsTheDocument) {
   EXPECT_EQ(json::parse(d.json)["fw-version"], "5.16.0.1");
 }
 
+TEST(Device, ListSlicesAreEachDeviceExactlyAsSent) {
+  // What Client::list keeps as Device::json: each element of "devices" cut out of
+  // the reply, so it must be the element whatever its strings hold.
+  json list = {{"complete", true},
+               {"a-before", json::array({json::array({1, 2}), "x]", json::object({{"k", "}"}})})},
+               {"devices", json::array({json::object({{"id", "a\"b\\"}, {"name", "quote \" [brace] {x}"}}),
+                                        json::object({{"id", "c"}, {"nested", {{"deep", json::array({1, "2", nullptr})}}}}),
+                                        json::object({{"id", "\\\\"}, {"name", "caf\u00e9 \u2014 \\\""}})})},
+               {"generation", 42}};
+  for (const std::string& text : {list.dump(), list.dump(2)}) {  // compact, as the daemon writes, and spaced
+    const auto slices = detail::array_member_elements(text, "devices");
+    ASSERT_EQ(slices.size(), 3u) << text;
+    for (std::size_t i = 0; i < slices.size(); ++i) EXPECT_EQ(json::parse(slices[i]), list["devices"][i]);
+  }
+  EXPECT_EQ(detail::array_member_elements(json({{"devices", json::array()}}).dump(), "devices").size(), 0u);
+  EXPECT_EQ(detail::array_member_elements(R"({"devices":[1, "two", true, null]})", "devices").size(), 4u);
+  EXPECT_TRUE(detail::array_member_elements(R"({"other":[1]})", "devices").empty());
+  EXPECT_TRUE(detail::array_member_elements(R"({"devices":{"id":1}})", "devices").empty());
+  EXPECT_TRUE(detail::array_member_elements(R"([{"devices":[1]}])", "devices").empty());
+}
+
 // The documents below are the daemon's own (its USB builder and its table), never
 // written by hand: the client must read what the daemon writes.
 TEST(Device, UsbAndMergedDevicesAsTheDaemonWritesThem) {
