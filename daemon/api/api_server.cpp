@@ -121,7 +121,7 @@ struct ApiServer::Impl {
   }
 
   void configure(RequestServer& svr, bool http);
-  std::shared_ptr<const std::string> device_list(const DeviceFilter& filter, const std::string& query, bool done,
+  std::shared_ptr<const SharedBody> device_list(const DeviceFilter& filter, const std::string& query, bool done,
                                                  std::uint64_t& generation);
   void handle_devices(const httplib::Request& req, httplib::Response& res);
   void handle_device(const httplib::Request& req, httplib::Response& res);
@@ -234,7 +234,7 @@ struct ListCache {
   struct Entry {
     bool complete = false;
     std::string query;
-    std::shared_ptr<const std::string> body;
+    std::shared_ptr<const SharedBody> body;
   };
   std::vector<Entry> entries;  // a handful of distinct filters is all pollers use
 };
@@ -242,7 +242,7 @@ thread_local ListCache tls_list_cache;
 
 }  // namespace
 
-std::shared_ptr<const std::string> ApiServer::Impl::device_list(const DeviceFilter& filter, const std::string& query,
+std::shared_ptr<const SharedBody> ApiServer::Impl::device_list(const DeviceFilter& filter, const std::string& query,
                                                                 bool done, std::uint64_t& generation) {
   auto& cache = tls_list_cache;
   if (cache.server == instance && cache.generation == table.generation())
@@ -258,7 +258,7 @@ std::shared_ptr<const std::string> ApiServer::Impl::device_list(const DeviceFilt
   // The generation lets a client list, then stream with ?since=generation,
   // without missing or repeating an event in between.
   nlohmann::json doc = {{"generation", snap.generation}, {"complete", done}, {"devices", std::move(devices)}};
-  auto body = std::make_shared<const std::string>(dump(doc) + "\n");
+  auto body = std::make_shared<const SharedBody>(dump(doc) + "\n");
   if (cache.server != instance || cache.generation != snap.generation) cache = {instance, snap.generation, {}};
   if (cache.entries.size() < 16) cache.entries.push_back({done, query, body});
   generation = snap.generation;
@@ -285,10 +285,12 @@ void ApiServer::Impl::handle_devices(const httplib::Request& req, httplib::Respo
     return;
   }
   res.status = 200;
-  // Served from the shared bytes, not copied into the response.
-  res.set_content_provider(body->size(), kJson, [body](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
-    return sink.write(body->data() + offset, length);
-  });
+  // Served from the shared bytes, not copied into the response (nor, by the loop,
+  // into the socket: see SharedBody).
+  res.set_content_provider(body->bytes().size(), kJson,
+                           [body](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+                             return write_shared(sink, body, offset, length);
+                           });
 }
 
 std::vector<nlohmann::json> ApiServer::Impl::lookup(const std::string& name) const {

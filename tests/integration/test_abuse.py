@@ -199,3 +199,37 @@ def test_an_event_stream_nobody_reads_is_dropped_and_the_others_keep_theirs(harn
         reader.close()
     stuck.close()
     wait_for(lambda: metric(metrics(h.tcp), "rsd_event_streams") == 0, what="streams closed")
+
+
+@pytest.mark.parametrize("which", ["unix", "tcp"])
+def test_a_large_list_reaches_a_slow_reader_whole_and_in_order(harness, which):
+    """A /v1/devices body this large goes out from a sealed memfd with sendfile: a
+    client reading it a little at a time through a tiny receive buffer gets every
+    byte, and two pipelined requests get their two answers in order, the second's
+    head after the first's whole body."""
+    h = harness()
+    for n in range(99):
+        h.upsert(*dev(n, **{"name": f"Intel RealSense D455 {'x' * 3000} {n}"}))
+    target = h.socket if which == "unix" else h.tcp
+    status, _, whole = request(target, "/v1/devices")
+    # Past the memfd threshold, and past a Unix socket's send buffer (208 KB): sendfile
+    # must stop short and go on where it stopped.
+    assert status == 200 and len(whole) > 256 * 1024
+    family = socket.AF_UNIX if which == "unix" else socket.AF_INET
+    s = socket.socket(family, socket.SOCK_STREAM)
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    s.settimeout(10)
+    s.connect(target)
+    one = b"GET /v1/devices HTTP/1.1\r\nHost: localhost\r\n\r\n"
+    s.sendall(one + one)
+    got = b""
+    while got.count(whole) < 2:
+        chunk = s.recv(1500)  # a slow reader: the daemon's socket fills, sendfile stops short
+        assert chunk, f"closed after {len(got)} bytes"
+        got += chunk
+        time.sleep(0.0005)
+    s.close()
+    first_end = got.index(whole) + len(whole)
+    assert got.startswith(b"HTTP/1.1 200 ") and got[first_end:].startswith(b"HTTP/1.1 200 "), got[first_end:first_end + 80]
+    assert got.endswith(whole)
+    assert len(json.loads(whole)["devices"]) == 99
