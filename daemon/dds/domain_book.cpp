@@ -134,6 +134,19 @@ bool DomainBook::drop_announcer(const std::string& id, const std::string& writer
   return false;
 }
 
+void DomainBook::participant_gone(const std::string& guid, Clock::time_point now) {
+  lost_.participant_gone(guid);
+  std::vector<std::pair<std::string, std::string>> gone;  // device id, writer GUID
+  for (const auto& [id, device] : devices_)
+    for (const auto& [writer, server] : device.announcers)
+      if (participant_of(writer) == guid) gone.emplace_back(id, writer);
+  for (const auto& [id, writer] : gone)
+    drop_announcer(id, writer, "its participant " + guid + " is gone (left, or its lease expired)");
+  // A server that announced cameras and went without 'stopping' (a crash, a cut).
+  if (!gone.empty()) lost_.writer_lost(guid, now);
+  std::erase_if(writers_, [&](const auto& w) { return w.second.identity.participant_guid == guid; });
+}
+
 void DomainBook::remove_device(const std::string& id, const std::string& why) {
   log::info(prefix() + "device " + id + " removed: " + why);
   table_.remove(id);
@@ -229,6 +242,8 @@ DomainBook::Due DomainBook::tick(Clock::time_point now, const std::set<Handle>& 
     silent[w.identity.participant_guid].push_back(w.identity.guid);
   }
   for (const auto& [p, guids] : silent) {
+    const bool announces = per_participant_.count(p) > 0;
+    if (guids.size() < 2 && announces) continue;  // most likely its idle writer
     int& retries = silent_retries_[p];
     if (retries >= options_.silent_retries) continue;
     ++retries;

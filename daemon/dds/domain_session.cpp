@@ -393,7 +393,7 @@ void DomainSession::take_participant_changes(dds_entity_t reader) {
       book_.participant_alive(c.guid, Clock::now());
       if (sighting && c.guid != participant_guid_) participants_.alive(std::move(*sighting), now);
     } else {
-      book_.participant_gone(c.guid);
+      book_.participant_gone(c.guid, Clock::now());
       participants_.gone(c.guid, now);
     }
     log::debug([&] { return log::domain_prefix(options_.domain) + "participant " + c.guid + (alive ? " alive" : " gone"); });

@@ -164,24 +164,58 @@ TEST_F(Book, AOneDeviceServerWhoseBroadcastWasLostIsAskedAgain) {
   for (int s = 4; s < 60; ++s) EXPECT_FALSE(book.tick(t0 + std::chrono::seconds(s), {1}).make_reader_anew);
 }
 
-TEST_F(Book, AnIdleWriterCostsOneNewReaderThenIsLeftAlone) {
-  // A server with one device and the writer that never writes (k + 1 writers,
-  // pyrealdds in some runs): one new reader, after which that writer is idle.
+TEST_F(Book, AServerWithDevicesAndOneIdleWriterIsLeftAlone) {
+  // One device and the writer that never writes (k + 1 writers, pyrealdds in some
+  // runs): the common case costs no new reader.
   book.writer_matched(1, writer(1, 1), t0);
   book.writer_matched(2, writer(1, 2), t0);
   book.sample(1, info("100"));
+  int anew = 0;
+  for (int s = 1; s < 60; ++s) anew += book.tick(t0 + std::chrono::seconds(s), {1, 2}).make_reader_anew;
+  EXPECT_EQ(anew, 0);
+  EXPECT_TRUE(table.find(id("100")));
+}
+
+TEST_F(Book, AnIdleWriterBesideALostBroadcastCostsOneNewReader) {
+  // k + 1 writers and the one device's broadcast lost: two silent writers, no device.
+  book.writer_matched(1, writer(1, 1), t0);
+  book.writer_matched(2, writer(1, 2), t0);
   EXPECT_TRUE(book.tick(t0 + 3s, {1, 2}).make_reader_anew);
   book.reader_made(t0 + 3s);
   book.writer_matched(1, writer(1, 1), t0 + 3s);
   book.writer_matched(2, writer(1, 2), t0 + 3s);
-  book.sample(1, info("100"));
+  book.sample(1, info("100"));  // the device writer answers the new reader; the idle one never does
   int anew = 0;
   for (int s = 4; s < 60; ++s) anew += book.tick(t0 + std::chrono::seconds(s), {1, 2}).make_reader_anew;
   EXPECT_EQ(anew, 0);
   EXPECT_TRUE(table.find(id("100")));
-  // Another server's writer is judged on its own.
+  // Another server's lost broadcast is judged on its own.
   book.writer_matched(3, writer(2, 1), t0 + 60s);
   EXPECT_TRUE(book.tick(t0 + 63s, {1, 2, 3}).make_reader_anew);
+}
+
+TEST_F(Book, AParticipantGoneTakesItsDevicesAtOnceEvenWhileReconciling) {
+  // A reader made anew just before a server was SIGKILLed never sees that server's
+  // writers leave (they never matched it): its participant's end removes them.
+  book.writer_matched(1, writer(1, 1), t0);
+  book.writer_matched(2, writer(2, 1), t0);
+  book.writer_matched(3, writer(3, 1), t0);
+  book.sample(1, info("100"));
+  book.sample(2, info("200"));
+  book.sample(3, info("100"));  // a second server of the same camera
+  book.reader_made(t0 + 1s);
+  book.writer_matched(12, writer(2, 1), t0 + 1s);
+  book.writer_matched(13, writer(3, 1), t0 + 1s);  // server 1's writer does not come back
+  book.participant_gone(writer(2, 1).participant_guid, t0 + 1500ms);
+  EXPECT_FALSE(table.find(id("200")));              // before the reconcile grace ends
+  book.participant_gone(writer(3, 1).participant_guid, t0 + 1600ms);
+  ASSERT_TRUE(table.find(id("100")));               // server 1 still announces it
+  EXPECT_EQ(shown_server("100"), "server-1");
+  book.participant_gone(writer(1, 1).participant_guid, t0 + 1700ms);
+  EXPECT_FALSE(table.find(id("100")));
+  EXPECT_EQ(status().lost_servers, 0u);  // judged lost only after the check delay
+  book.tick(t0 + 2500ms, {});
+  EXPECT_EQ(status().lost_servers, 3u);
 }
 
 TEST_F(Book, SilentWritersMakeTheReaderAnewAFewTimesAtMost) {
@@ -216,7 +250,7 @@ TEST_F(Book, ALostServerAsksForARefreshAndIsFoundAgain) {
   book.participant_alive(writer(1, 1).participant_guid, t0);
   book.writer_matched(1, writer(1, 1), t0);
   book.sample(1, info("100"));
-  book.participant_gone(writer(1, 1).participant_guid);  // its lease expired (a cut)
+  book.participant_gone(writer(1, 1).participant_guid, t0);  // its lease expired (a cut)
   book.writer_left(1, {}, t0);
   EXPECT_FALSE(table.find(id("100")));
   EXPECT_FALSE(book.tick(t0 + 500ms, {}).refresh);
