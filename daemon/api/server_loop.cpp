@@ -286,8 +286,7 @@ struct ServerLoop::Impl {
   std::atomic<std::size_t> connections{0};
   // Held from accept4 to counting what was accepted. Both reactors take from the same
   // listeners; without it one could count its accept after the other had already judged a
-  // later client against the lower number, letting a client in past max_connections
-  // (seen under ASan: the third client of a limit of 2 was served).
+  // later client against the lower number, letting a client in past max_connections.
   std::mutex accepting;
   std::atomic<std::size_t> streams{0};
   std::atomic<std::size_t> blocking{0};
