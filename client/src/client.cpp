@@ -114,6 +114,10 @@ DeviceList Client::Impl::list(const DeviceFilter& filter, Clock::time_point dead
       auto devices = doc.find("devices");
       if (devices == doc.end() || !devices->is_array()) malformed(endpoint, "no \"devices\" array");
       if (!devices->empty()) malformed(endpoint, "a device is not a JSON object");  // what was not taken above
+      if (texts.size() != out.devices.size()) {  // the scan and the parser disagree: the parser wins
+        const auto whole = json::parse(reply.body);
+        for (std::size_t i = 0; i < out.devices.size(); ++i) out.devices[i].json = whole["devices"][i].dump();
+      }
       if (auto g = doc.find("generation"); g != doc.end() && g->is_number_unsigned())
         out.generation = g->get<std::uint64_t>();
       out.complete = detail::reports_complete(doc);

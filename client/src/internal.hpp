@@ -31,7 +31,9 @@ Participant participant_from_json(const nlohmann::json& doc);
 
 // The text of each element of the array that member `key` of the JSON object
 // `text` holds, as it stands in `text`; nothing when there is no such array.
-// `text` must already have parsed as JSON: this only finds where things are.
+// This only finds where things are: on text that is not JSON it still ends, with
+// slices that mean nothing (Client::list takes them only when the parser accepts
+// the text and finds as many devices).
 std::vector<std::string_view> array_member_elements(std::string_view text, std::string_view key);
 
 // The same device document, apart from fields that move without being news

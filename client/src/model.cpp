@@ -162,6 +162,7 @@ std::vector<std::string_view> array_member_elements(std::string_view text, std::
     i = skip_space(text, i + 1);
     while (i < text.size() && text[i] != ']') {
       const std::size_t end = skip_value(text, i);
+      if (end == i) return {};  // not JSON after all (a stray '}' or ','): no slices
       out.push_back(text.substr(i, end - i));
       i = skip_space(text, end);
       if (i < text.size() && text[i] == ',') i = skip_space(text, i + 1);

@@ -200,6 +200,10 @@ TEST(Device, ListSlicesAreEachDeviceExactlyAsSent) {
   EXPECT_TRUE(detail::array_member_elements(R"({"other":[1]})", "devices").empty());
   EXPECT_TRUE(detail::array_member_elements(R"({"devices":{"id":1}})", "devices").empty());
   EXPECT_TRUE(detail::array_member_elements(R"([{"devices":[1]}])", "devices").empty());
+  // What is not JSON ends the scan (it runs before the parser has judged the reply).
+  for (const char* broken : {R"({"devices":[})", R"({"devices":[1,})", R"({"devices":["abc)", R"({"devices":[{"a":"\"}])",
+                             R"({"devices":[,,])", R"({"devices")", R"({"devices":)", R"({"devices":[{)", "{", ""})
+    detail::array_member_elements(broken, "devices");
 }
 
 // The documents below are the daemon's own (its USB builder and its table), never
