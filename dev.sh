@@ -18,10 +18,12 @@ ROOT=$PWD
 DEB_PACKAGES=(
   # build
   build-essential cmake ninja-build pkg-config git
-  cyclonedds-dev cyclonedds-tools libusb-1.0-0-dev nlohmann-json3-dev libcpp-httplib-dev
+  cyclonedds-dev cyclonedds-tools libusb-1.0-0-dev nlohmann-json3-dev libcpp-httplib-dev rapidjson-dev
   libsystemd-dev googletest libgtest-dev libgmock-dev
   # tests: a Python for the harnesses and the real realdds peer (pyrealsense2 needs libusb)
   python3 python3-venv python3-pip python3-gi curl libusb-1.0-0 iproute2 groff-base util-linux
+  # the network-cut and doctor tests: firewall rules in network namespaces
+  nftables
   # USB tests with emulated devices
   umockdev libumockdev-dev gir1.2-umockdev-1.0
   # systemd tools (systemd-socket-activate, systemd-analyze) and Debian packaging

@@ -90,37 +90,8 @@ DeviceList Client::Impl::list(const DeviceFilter& filter, Clock::time_point dead
       if (cached.list.complete || Clock::now() >= deadline) return cached.list;
     } else {
       if (reply.status != 200) throw transport.status_error(path, reply);
-      // Each device is made as soon as the parser has read it, and dropped from the
-      // tree: one device's nodes at a time, not the whole list's (a cold list of 100
-      // cameras spent a third of its page faults on the tree). Its text is kept as
-      // sent, cut out of the reply.
-      const auto texts = detail::array_member_elements(reply.body, "devices");
       DeviceList out;
-      out.devices.reserve(texts.size());
-      std::string member;  // the top-level key being read
-      const json::parser_callback_t one_device_at_a_time = [&](int depth, json::parse_event_t event, json& parsed) {
-        if (depth == 1 && event == json::parse_event_t::key) {
-          member = parsed.get<std::string>();
-        } else if (depth == 2 && event == json::parse_event_t::object_end && member == "devices") {
-          const std::size_t i = out.devices.size();
-          out.devices.push_back(detail::device_from_json(parsed, i < texts.size() ? std::string(texts[i]) : ""));
-          return false;
-        }
-        return true;
-      };
-      auto doc = json::parse(reply.body, one_device_at_a_time, false);
-      if (doc.is_discarded() || !doc.is_object())
-        malformed(endpoint, "GET " + path + " did not return a JSON object");
-      auto devices = doc.find("devices");
-      if (devices == doc.end() || !devices->is_array()) malformed(endpoint, "no \"devices\" array");
-      if (!devices->empty()) malformed(endpoint, "a device is not a JSON object");  // what was not taken above
-      if (texts.size() != out.devices.size()) {  // the scan and the parser disagree: the parser wins
-        const auto whole = json::parse(reply.body);
-        for (std::size_t i = 0; i < out.devices.size(); ++i) out.devices[i].json = whole["devices"][i].dump();
-      }
-      if (auto g = doc.find("generation"); g != doc.end() && g->is_number_unsigned())
-        out.generation = g->get<std::uint64_t>();
-      out.complete = detail::reports_complete(doc);
+      if (auto problem = detail::read_device_list(reply.body, path, out)) malformed(endpoint, *problem);
       // Kept for an If-None-Match from the second list of this filter on: a one-shot
       // caller (the CLI) does not pay for a copy of every device it never asks again.
       if (cached.asked) cached = {reply.etag, out, true};

@@ -24,6 +24,14 @@ namespace rsdiscovery::detail {
 // `text`: the document as the daemon sent it, kept as Device::json; empty: written
 // anew from `doc`.
 Device device_from_json(const nlohmann::json& doc, std::string text = {});  // throws Error(malformed_reply)
+// The model's reading of a device as the public type, `text` its Device::json;
+// throws Error(malformed_reply) for a device without an id.
+Device device_from_model(rsd::model::Device m, std::string text);
+// GET `path`'s reply (a /v1/devices document) into `out`: each device with its text
+// as sent. A problem with the document is returned, said as for a user; a device
+// without an id throws Error(malformed_reply). `body` is parsed in place: what is
+// left of it means nothing.
+std::optional<std::string> read_device_list(std::string& body, const std::string& path, DeviceList& out);
 Description description_from_json(const nlohmann::json& doc);  // throws Error(malformed_reply)
 DomainStatus domain_from_json(const nlohmann::json& doc);
 Health health_from_json(const nlohmann::json& doc);

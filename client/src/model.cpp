@@ -57,11 +57,14 @@ auto read_model(Read read, const json& doc) -> decltype(read(doc)) {
 
 }  // namespace
 
-// The daemon's model (proto/model) reads the document; this only maps it onto the
-// public struct, which has to stay free of nlohmann.
 Device device_from_json(const json& doc, std::string text) {
   if (!doc.is_object()) malformed("a device is not a JSON object");
-  rsd::model::Device m = rsd::model::device_from_json(doc);
+  return device_from_model(rsd::model::device_from_json(doc), text.empty() ? doc.dump() : std::move(text));
+}
+
+// The daemon's model (proto/model) reads the document; this only maps it onto the
+// public struct, which has to stay free of nlohmann.
+Device device_from_model(rsd::model::Device m, std::string text) {
   if (m.id.empty()) malformed("a device has no \"id\"");
   // Moved, not copied: the model is a step on the way (a cold list of 100 devices
   // spent a tenth of its instructions copying strings across).
@@ -99,7 +102,7 @@ Device device_from_json(const json& doc, std::string text) {
   d.state = rsd::model::to_string(m.state());
   d.warnings = std::move(m.warnings);
   if (!d.warnings.empty()) d.warning = d.warnings.front();
-  d.json = text.empty() ? doc.dump() : std::move(text);
+  d.json = std::move(text);
   return d;
 }
 

@@ -206,6 +206,143 @@ TEST(Device, ListSlicesAreEachDeviceExactlyAsSent) {
     detail::array_member_elements(broken, "devices");
 }
 
+// Client::list reads with RapidJSON (device_list.cpp), everything else with nlohmann:
+// the same document must give the same devices either way, and the same documents must
+// be refused.
+void expect_same_device(const Device& a, const Device& b) {
+  EXPECT_EQ(a.id, b.id);
+  EXPECT_EQ(a.source, b.source);
+  EXPECT_EQ(a.sources, b.sources);
+  EXPECT_EQ(a.domain, b.domain);
+  EXPECT_EQ(a.topic_root, b.topic_root);
+  EXPECT_EQ(a.name, b.name);
+  EXPECT_EQ(a.serial, b.serial);
+  EXPECT_EQ(a.product_line, b.product_line);
+  EXPECT_EQ(a.product_id, b.product_id);
+  EXPECT_EQ(a.fw_version, b.fw_version);
+  EXPECT_EQ(a.recovery, b.recovery);
+  EXPECT_EQ(a.first_seen, b.first_seen);
+  EXPECT_EQ(a.last_seen, b.last_seen);
+  EXPECT_EQ(a.state, b.state);
+  EXPECT_EQ(a.warnings, b.warnings);
+  EXPECT_EQ(a.warning, b.warning);
+  ASSERT_EQ(a.server.has_value(), b.server.has_value());
+  if (a.server) {
+    EXPECT_EQ(a.server->participant_guid, b.server->participant_guid);
+    EXPECT_EQ(a.server->participant_name, b.server->participant_name);
+    EXPECT_EQ(a.server->addresses, b.server->addresses);
+  }
+  ASSERT_EQ(a.usb.has_value(), b.usb.has_value());
+  if (a.usb) {
+    EXPECT_EQ(a.usb->bus, b.usb->bus);
+    EXPECT_EQ(a.usb->port_path, b.usb->port_path);
+    EXPECT_EQ(a.usb->speed, b.usb->speed);
+  }
+  EXPECT_EQ(a.json, b.json);
+}
+
+TEST(DeviceList, ReadsTheDaemonsListAsNlohmannReadsEachDevice) {
+  // The daemon's own documents: its USB builder and its table, as in the test below.
+  rsd::usb::UsbSighting s;
+  s.vid = 0x8086;
+  s.pid = 0x0B07;
+  s.bcd_usb = 0x0320;
+  s.bus = 2;
+  s.address = 5;
+  s.ports = {1, 3};
+  s.speed_mbps = 5000;
+  s.serial = "123";
+  rsd::DeviceTable table;
+  table.upsert(rsd::usb::sighting_id(s), rsd::usb::to_json(s, *rsd::usb::find_product(s.vid, s.pid)),
+               "2026-11-23T13:10:20.123Z");
+  s.serial = "456";
+  s.speed_mbps = 480;  // a USB 2 link: a warning
+  s.address = 6;
+  s.ports = {4};
+  table.upsert(rsd::usb::sighting_id(s), rsd::usb::to_json(s, *rsd::usb::find_product(s.vid, s.pid)),
+               "2026-11-23T13:10:20.500Z");
+  // Device-infos as cameras send them: keys of their own, known keys of other types, a
+  // name beyond ASCII (the slower, validating parse), numbers of every kind.
+  table.upsert("dds-7-realsense.D455_1",
+               {{"source", "dds"}, {"domain", 7}, {"topic-root", "realsense/D455_1"},
+                {"name", "Intel RealSense D455 \u2014 caf\u00e9"}, {"serial", "1"}, {"product-line", "D400"},
+                {"recovery", true}, {"multicast-ip", "239.0.0.1"}, {"locked", false},
+                {"numbers", json::array({-1, 18446744073709551615ULL, 1.5, 1e300, 0})},
+                {"server", {{"participant-guid", "01.0f"}, {"addresses", json::array({"192.0.2.1", "10.1.2.3"})}}}},
+               "2026-11-23T13:10:21.000Z");
+  table.upsert("dds-8-realsense.D405_2",
+               {{"source", "dds"}, {"domain", "eight"}, {"serial", 2}, {"name", "a \"quoted\" \\ name\n"},
+                {"fw-version", nullptr}, {"server", {{"participant-guid", 5}}}, {"warnings", json::array()}},
+               "2026-11-23T13:10:22.000Z");
+  const json list = {{"generation", 9}, {"complete", false}, {"devices", table.devices()}};
+  for (const std::string& text : {list.dump(), list.dump(2)}) {
+    std::string body = text;
+    DeviceList out;
+    ASSERT_EQ(detail::read_device_list(body, "/v1/devices", out), std::nullopt) << text;
+    EXPECT_EQ(out.generation, 9u);
+    EXPECT_FALSE(out.complete);
+    const auto slices = detail::array_member_elements(text, "devices");
+    ASSERT_EQ(out.devices.size(), 4u);
+    for (std::size_t i = 0; i < out.devices.size(); ++i) {
+      SCOPED_TRACE(i);
+      expect_same_device(out.devices[i], detail::device_from_json(list["devices"][i], std::string(slices[i])));
+    }
+    const auto by_id = [&](const std::string& id) {
+      for (const auto& d : out.devices)
+        if (d.id == id) return d;
+      ADD_FAILURE() << id << " not listed";
+      return Device{};
+    };
+    const auto network = by_id("dds-7-realsense.D455_1");
+    EXPECT_EQ(network.name, "Intel RealSense D455 \u2014 caf\u00e9");
+    EXPECT_EQ(network.field("multicast-ip"), "\"239.0.0.1\"");
+    EXPECT_EQ(by_id(rsd::usb::sighting_id(s)).state, "warning");
+  }
+}
+
+TEST(DeviceList, RefusesWhatNlohmannRefuses) {
+  const std::string bad_utf8[] = {"\xff", "\xc0\xaf", "\xed\xa0\x80", "caf\xc3"};  // stray, overlong, surrogate, cut
+  std::vector<std::string> bodies = {
+      "", "{", R"({"devices":[]} x)", R"({"devices":[1e400]})", R"({"devices":["\ud800"]})",
+      "{\"devices\":[\"a\x01\"]}", R"({"devices":[{"id":"a",}]})", R"({"devices":[NaN]})", R"({'devices':[]})",
+      R"({"devices":[01]})"};
+  for (const auto& b : bad_utf8) bodies.push_back(R"({"devices":[{"id":"x","name":")" + b + R"("}]})");
+  for (const auto& text : bodies) {
+    SCOPED_TRACE(text);
+    EXPECT_TRUE(json::parse(text, nullptr, false).is_discarded());  // nlohmann's verdict
+    std::string body = text;
+    DeviceList list;
+    const auto problem = detail::read_device_list(body, "/v1/devices", list);
+    ASSERT_TRUE(problem);
+    EXPECT_EQ(*problem, "GET /v1/devices did not return a JSON object");
+  }
+  DeviceList out;
+  // A NUL, which JSON never has (nlohmann takes it for the end of the text).
+  std::string nul("{\"devices\":[]}\0", 15);
+  EXPECT_EQ(detail::read_device_list(nul, "/v1/devices", out), "GET /v1/devices did not return a JSON object");
+  // JSON, but not the list: said as what is wrong.
+  for (const auto& [text, said] : std::vector<std::pair<std::string, std::string>>{
+           {"[]", "GET /v1/devices did not return a JSON object"},
+           {"null", "GET /v1/devices did not return a JSON object"},
+           {R"({"generation":1})", "no \"devices\" array"},
+           {R"({"devices":{"id":"x"}})", "no \"devices\" array"},
+           {R"({"devices":[{"id":"x"},7]})", "a device is not a JSON object"}}) {
+    std::string body = text;
+    DeviceList list;
+    EXPECT_EQ(detail::read_device_list(body, "/v1/devices", list), said) << text;
+  }
+  std::string no_id = R"({"devices":[{"name":"x"}]})";
+  EXPECT_THROW(detail::read_device_list(no_id, "/v1/devices", out), Error);
+  // Nesting: as deep as a device-info may be (the daemon cuts them at 16 levels) is
+  // read; far deeper is refused, not recursed into (the stack would run out).
+  std::string nested = R"({"devices":[{"id":"x","nested":)" + std::string(16, '[') + std::string(16, ']') + "}]}";
+  ASSERT_EQ(detail::read_device_list(nested, "/v1/devices", out), std::nullopt);
+  EXPECT_EQ(out.devices.at(0).field("nested"), std::string(16, '[') + std::string(16, ']'));
+  std::string deep = R"({"devices":[{"id":"x","deep":)" + std::string(200000, '[') + std::string(200000, ']') + "}]}";
+  EXPECT_EQ(detail::read_device_list(deep, "/v1/devices", out),
+            "GET /v1/devices returned a document nested deeper than 64 levels");
+}
+
 // The documents below are the daemon's own (its USB builder and its table), never
 // written by hand: the client must read what the daemon writes.
 TEST(Device, UsbAndMergedDevicesAsTheDaemonWritesThem) {
