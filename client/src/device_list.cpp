@@ -4,7 +4,7 @@
 // Why not nlohmann here, as everywhere else: a cold `rs-discover list` of 100 cameras
 // (51 KB) spent 85 % of its instructions in nlohmann's parser, whose floor (its lexer
 // alone, a SAX parse doing nothing) was 0.72 ms in a loop on the bench machine, while
-// RapidJSON builds its whole tree in 0.18 ms (bench/results/client-cold-start.txt).
+// RapidJSON builds its whole tree in 0.18 ms (bench/results/profile-cli-list.txt).
 // It is header-only, so the CLI loads nothing more for it.
 #include "internal.hpp"
 
@@ -55,7 +55,7 @@ class RapidView {
     return true;
   }
   // Written out and read back by nlohmann: only keys the model does not know (rare)
-  // take this way, and nlohmann reads any depth without recursing.
+  // take this way. Writing recurses, over at most DepthLimited::kMaxDepth levels.
   json to_json() const {
     rapidjson::StringBuffer buffer;
     rapidjson::Writer<rapidjson::StringBuffer> writer(buffer);
