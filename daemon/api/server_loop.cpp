@@ -152,8 +152,9 @@ class SplicePipe {
     char scratch[4096];
     while (left > 0) {
       const ssize_t n = ::read(read_, scratch, std::min(left, sizeof scratch));
-      if (n <= 0 && errno != EINTR) break;
-      if (n > 0) left -= static_cast<std::size_t>(n);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) break;
+      left -= static_cast<std::size_t>(n);
     }
   }
   int read_ = -1, write_ = -1;
