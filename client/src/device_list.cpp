@@ -67,13 +67,15 @@ class RapidView {
   const rapidjson::Value* v_;
 };
 
-std::optional<std::string> read_list(const RapidView& doc, std::vector<std::string>& texts,
+// The list document from either tree (see has_long_exponent): the same checks.
+template <class V>
+std::optional<std::string> read_list(const V& doc, std::vector<std::string>& texts,
                                      const std::string& path, DeviceList& out) {
   if (!doc.is_object()) return "GET " + path + " did not return a JSON object";
   bool has_devices = false;
   std::optional<std::string> problem;
   out.complete = true;  // no "complete": a daemon older than the field (reports_complete)
-  doc.each_member([&](std::string_view key, const RapidView& value) {
+  doc.each_member([&](std::string_view key, const V& value) {
     if (key == "devices") {
       if (!value.is_array()) return true;  // said below, as a missing array
       has_devices = true;
@@ -81,7 +83,7 @@ std::optional<std::string> read_list(const RapidView& doc, std::vector<std::stri
       out.devices.reserve(value.size());
       // Each text as the daemon sent it, when the scan found as many as the parser.
       const bool texts_fit = texts.size() == value.size();
-      value.each_element([&](const RapidView& d) {
+      value.each_element([&](const V& d) {
         if (!d.is_object()) {
           problem = "a device is not a JSON object";
           return false;
@@ -143,6 +145,23 @@ class DepthLimited {
   bool too_deep_ = false;
 };
 
+// RapidJSON 1.1.0 as bookworm ships it (1.1.0+dfsg2-7.1) adds a negative exponent of
+// nine digits to the count of a fraction's digits in an int, which a fraction of some
+// two billion digits underflows (CVE-2024-38517; trixie's 7.4 is patched). The daemon
+// never writes an exponent of more than three digits (it writes doubles the shortest
+// way): a body with a longer one anywhere, inside a string too (this is only a hint),
+// is read by nlohmann instead, and RapidJSON never meets such a number.
+bool has_long_exponent(std::string_view text) {
+  for (auto i = text.find_first_of("eE"); i != std::string_view::npos; i = text.find_first_of("eE", i + 1)) {
+    auto j = i + 1;
+    if (j < text.size() && (text[j] == '+' || text[j] == '-')) ++j;
+    std::size_t digits = 0;
+    while (j < text.size() && text[j] >= '0' && text[j] <= '9') ++j, ++digits;
+    if (digits > 3) return true;
+  }
+  return false;
+}
+
 bool is_ascii(std::string_view text) {
   std::uint64_t high = 0;  // eight bytes at a time: the loop is most of what a check costs
   std::size_t i = 0;
@@ -172,6 +191,11 @@ std::optional<std::string> read_device_list(std::string& body, const std::string
   // In place, the parse stops at a NUL as at the end; JSON has none outside strings,
   // nor raw inside them.
   if (body.find('\0') != std::string::npos) return "GET " + path + " did not return a JSON object";
+  if (has_long_exponent(body)) {
+    const auto tree = json::parse(body, nullptr, false);
+    if (tree.is_discarded()) return "GET " + path + " did not return a JSON object";
+    return read_list(rsd::model::JsonView(tree), texts, path, out);
+  }
   rapidjson::Document doc;
   DepthLimited builder(doc);
   rapidjson::InsituStringStream stream(body.data());

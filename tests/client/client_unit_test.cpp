@@ -333,6 +333,14 @@ TEST(DeviceList, RefusesWhatNlohmannRefuses) {
   }
   std::string no_id = R"({"devices":[{"name":"x"}]})";
   EXPECT_THROW(detail::read_device_list(no_id, "/v1/devices", out), Error);
+  // Exponents of more than three digits (which the daemon never writes) are read by
+  // nlohmann, never by bookworm's RapidJSON (CVE-2024-38517): as nlohmann reads them
+  // (0), and refused where nlohmann refuses them.
+  std::string tiny = R"({"devices":[{"id":"x","n":[0.00001e-2147483647,1.5e-2147483648,1e-99999]}]})";
+  ASSERT_EQ(detail::read_device_list(tiny, "/v1/devices", out), std::nullopt);
+  EXPECT_EQ(json::parse(out.devices.at(0).field("n")), json::parse("[0.0,0.0,0.0]"));
+  std::string huge = R"({"devices":[{"id":"x","n":1e2147483647}]})";
+  EXPECT_EQ(detail::read_device_list(huge, "/v1/devices", out), "GET /v1/devices did not return a JSON object");
   // Nesting: as deep as a device-info may be (the daemon cuts them at 16 levels) is
   // read; far deeper is refused, not recursed into (the stack would run out).
   std::string nested = R"({"devices":[{"id":"x","nested":)" + std::string(16, '[') + std::string(16, ']') + "}]}";
