@@ -206,6 +206,20 @@ TEST(Device, ListSlicesAreEachDeviceExactlyAsSent) {
     detail::array_member_elements(broken, "devices");
 }
 
+// A D435 (a USB 3 camera) on bus 2, port 1.3, as libusb would describe it.
+rsd::usb::UsbSighting d435_sighting(std::uint16_t bcd_usb, double speed_mbps) {
+  rsd::usb::UsbSighting s;
+  s.vid = 0x8086;
+  s.pid = 0x0B07;
+  s.bcd_usb = bcd_usb;
+  s.bus = 2;
+  s.address = 5;
+  s.ports = {1, 3};
+  s.speed_mbps = speed_mbps;
+  s.serial = "123";
+  return s;
+}
+
 // Client::list reads with RapidJSON (device_list.cpp), everything else with nlohmann:
 // the same document must give the same devices either way, and the same documents must
 // be refused.
@@ -243,15 +257,7 @@ void expect_same_device(const Device& a, const Device& b) {
 
 TEST(DeviceList, ReadsTheDaemonsListAsNlohmannReadsEachDevice) {
   // The daemon's own documents: its USB builder and its table, as in the test below.
-  rsd::usb::UsbSighting s;
-  s.vid = 0x8086;
-  s.pid = 0x0B07;
-  s.bcd_usb = 0x0320;
-  s.bus = 2;
-  s.address = 5;
-  s.ports = {1, 3};
-  s.speed_mbps = 5000;
-  s.serial = "123";
+  auto s = d435_sighting(0x0320, 5000);
   rsd::DeviceTable table;
   table.upsert(rsd::usb::sighting_id(s), rsd::usb::to_json(s, *rsd::usb::find_product(s.vid, s.pid)),
                "2026-11-23T13:10:20.123Z");
@@ -354,15 +360,7 @@ TEST(DeviceList, RefusesWhatNlohmannRefuses) {
 // The documents below are the daemon's own (its USB builder and its table), never
 // written by hand: the client must read what the daemon writes.
 TEST(Device, UsbAndMergedDevicesAsTheDaemonWritesThem) {
-  rsd::usb::UsbSighting s;
-  s.vid = 0x8086;
-  s.pid = 0x0B07;  // D435: a USB 3 camera
-  s.bcd_usb = 0x0210;
-  s.bus = 2;
-  s.address = 5;
-  s.ports = {1, 3};
-  s.speed_mbps = 480;  // on a USB 2 link
-  s.serial = "123";
+  auto s = d435_sighting(0x0210, 480);  // a USB 3 camera on a USB 2 link
   rsd::DeviceTable table;
   table.upsert(rsd::usb::sighting_id(s), rsd::usb::to_json(s, *rsd::usb::find_product(s.vid, s.pid)),
                "2026-11-23T13:10:20.123Z");

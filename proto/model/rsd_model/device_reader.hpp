@@ -80,8 +80,7 @@ template <class V> bool read(const V& v, std::string& out);
 template <class V> bool read(const V& v, bool& out);
 template <class V> bool read(const V& v, int& out);
 template <class V> bool read(const V& v, double& out);
-template <class V> bool read(const V& v, std::vector<std::string>& out);
-template <class V> bool read(const V& v, std::vector<Source>& out);
+template <class V, class T> bool read(const V& v, std::vector<T>& out);
 template <class V> bool read(const V& v, Source& out);
 template <class V> bool read(const V& v, Server& out);
 template <class V> bool read(const V& v, Usb& out);
@@ -113,31 +112,13 @@ bool read(const V& v, double& out) {
   out = v.number();
   return true;
 }
-template <class V>
-bool read(const V& v, std::vector<std::string>& out) {
+// An array whose every element the reader of T takes; any other leaves it in `extra`.
+template <class V, class T>
+bool read(const V& v, std::vector<T>& out) {
   if (!v.is_array()) return false;
-  std::vector<std::string> values;
+  std::vector<T> values;
   values.reserve(v.size());
-  if (!v.each_element([&](const V& e) {
-        if (!e.is_string()) return false;
-        values.emplace_back(e.text());
-        return true;
-      }))
-    return false;
-  out = std::move(values);
-  return true;
-}
-template <class V>
-bool read(const V& v, std::vector<Source>& out) {
-  if (!v.is_array() || v.size() == 0) return false;  // empty is "not written"
-  std::vector<Source> values;
-  if (!v.each_element([&](const V& e) {
-        auto s = e.is_string() ? parse_source(e.text()) : std::nullopt;
-        if (!s) return false;
-        values.push_back(*s);
-        return true;
-      }))
-    return false;
+  if (!v.each_element([&](const V& e) { return read(e, values.emplace_back()); })) return false;
   out = std::move(values);
   return true;
 }
@@ -215,7 +196,7 @@ Device read_device(const V& doc) {
     else if (k == key::source) {
       Source s{};
       if ((ok = read(v, s))) d.source = s;
-    } else if (k == key::sources) ok = read(v, d.sources);
+    } else if (k == key::sources) ok = read(v, d.sources) && !d.sources.empty();  // empty: "not written"
     else if (k == key::domain) ok = read(v, d.domain);
     else if (k == key::topic_root) ok = read(v, d.topic_root);
     else if (k == key::name) ok = read(v, d.name);
@@ -232,6 +213,7 @@ Device read_device(const V& doc) {
     else if (k == key::merged_into) ok = read(v, d.merged_into);
     if (!ok) {
       if (k == key::id) d.id.clear();
+      if (k == key::sources) d.sources.clear();
       if (k == key::warnings) d.warnings.clear();
       d.extra[std::string(k)] = v.to_json();
     }
