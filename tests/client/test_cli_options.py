@@ -17,7 +17,7 @@ import sys
 
 import pytest
 from client_util import CLI, DOMAIN_RANGE, SOURCE, rs_discover
-from conftest import device_info, free_port, wait_for
+from conftest import UnixHTTPConnection, device_info, free_port, wait_for
 
 sys.path.insert(0, os.path.join(SOURCE, "client", "python", "src"))
 import rsdiscovery  # noqa: E402  (the package as shipped)
@@ -154,18 +154,27 @@ def test_a_busy_daemon_is_asked_again_after_retry_after(daemon, domains):
     domain = domains.take(*DOMAIN_RANGE)
     d = daemon([domain], extra=["--max-clients", "2"])
 
-    def open_connections():
-        text = d.request("/metrics")[2].decode()
-        return int(re.search(r"^rsd_api_connections (\d+)$", text, re.M).group(1))
+    def hold_a_slot():
+        """A connection the daemon has taken as one of its clients (it answered a request on
+        it and keeps it open), or None when it was refused: a connection closed just before
+        can still hold its slot until the daemon has seen it go (CI saw the /metrics
+        fixture's own request do that, and the test's 'busy' daemon then had a free slot)."""
+        conn = UnixHTTPConnection(d.socket)
+        try:
+            conn.request("GET", "/v1/domains")
+            r = conn.getresponse()
+            r.read()
+        except OSError:
+            conn.close()
+            return None
+        if r.status == 200:
+            return conn
+        conn.close()
+        return None
 
-    # The fixture's own requests close on the client's side first: until the daemon has
-    # seen them go they count, and one of the two below would be refused instead of held.
-    wait_for(lambda: open_connections() == 1, 10, what="only the /metrics request itself open")
     held = []
     for _ in range(2):  # the daemon's two client slots, taken
-        s = socket.socket(socket.AF_UNIX)
-        s.connect(d.socket)
-        held.append(s)
+        held.append(wait_for(hold_a_slot, 10, what="a client slot the daemon keeps"))
     third = socket.socket(socket.AF_UNIX)  # a third client is turned away at once
     third.settimeout(5)
     third.connect(d.socket)
