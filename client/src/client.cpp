@@ -232,6 +232,13 @@ Watch Client::watch(WatchOptions options) {
   return Watch(std::move(core));
 }
 
+DeviceView Client::view(WatchOptions options) {
+  options.initial = false;  // nothing to report: the view is what is kept
+  auto core = std::make_shared<WatchCore>(impl_->endpoint, impl_->options, std::move(options));
+  core->start_view();
+  return DeviceView(std::move(core));
+}
+
 Subscription Client::watch(std::function<void(const Event&)> on_event, WatchOptions options,
                            std::function<void(std::exception_ptr)> on_error,
                            std::function<void(const WatchStatus&)> on_status) {

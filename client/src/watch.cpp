@@ -33,6 +33,10 @@ void WatchCore::start_pull() {
   }, options_.on_status, {});
 }
 
+void WatchCore::start_view() {
+  start([](Event&&) {}, options_.on_status, {});
+}
+
 void WatchCore::start(Sink sink, StatusSink status, EndSink on_end) {
   sink_ = std::move(sink);
   status_ = std::move(status);
@@ -88,9 +92,8 @@ std::uint64_t WatchCore::last_event_id() const {
 std::vector<Device> WatchCore::devices() const {
   std::lock_guard lock(mutex_);
   std::vector<Device> out;
-  for (const auto& [id, doc] : known_) {
-    out.push_back(detail::device_from_json(doc));  // the daemon filtered the view already
-  }
+  out.reserve(known_.size());
+  for (const auto& [id, known] : known_) out.push_back(known.device);  // the daemon filtered the view already
   return out;
 }
 
@@ -111,6 +114,7 @@ std::optional<Event> WatchCore::next(std::optional<std::chrono::milliseconds> ti
 }
 
 void WatchCore::status(bool connected, const std::string& message) {
+  connected_ = connected;
   if (!status_) return;
   try {
     status_(WatchStatus{connected, message});
@@ -182,6 +186,7 @@ void WatchCore::run() {
     std::lock_guard lock(mutex_);
     end_error_ = error;
     finished_ = true;
+    connected_ = false;
   }
   cv_.notify_all();
   if (on_end_) on_end_(error);
@@ -301,15 +306,18 @@ void WatchCore::apply(Event::Type type, json doc, std::uint64_t id, bool synthet
         known_.erase(it);
       }
       out.type = Event::Type::removed;
+      out.device = detail::device_from_json(doc);
     } else {
-      if (it != known_.end() && detail::same_device(it->second, doc)) {
-        it->second = std::move(doc);
-        return;  // already known as it is (a replay, or in the list already)
+      if (it != known_.end() && detail::same_device(it->second.doc, doc)) {
+        // A replay, or in the list already: nothing to report, but its times may be newer.
+        it->second.device = detail::device_from_json(doc);
+        it->second.doc = std::move(doc);
+        return;
       }
       out.type = it == known_.end() ? Event::Type::added : Event::Type::changed;
-      known_[key] = doc;
+      out.device = detail::device_from_json(doc);
+      known_[key] = Known{std::move(doc), out.device};
     }
-    out.device = detail::device_from_json(doc);
   }
   sink_(std::move(out));
 }
@@ -350,11 +358,13 @@ std::optional<std::uint64_t> WatchCore::relist(bool emit) {
     throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd at " +
                                                 lister_.endpoint().to_string() +
                                                 ": /v1/devices has no \"devices\" array");
-  std::map<std::string, json> fresh;
+  std::map<std::string, Known> fresh;  // the whole list read before the view changes
   for (auto& d : *list) {
     if (!d.is_object() || !d.contains("id") || !d["id"].is_string())
       throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: a device has no \"id\"");
-    fresh[d["id"].get<std::string>()] = d;
+    std::string id = d["id"].get<std::string>();
+    Device device = detail::device_from_json(d);
+    fresh[std::move(id)] = Known{std::move(d), std::move(device)};
   }
   std::uint64_t at;
   std::vector<json> gone;
@@ -370,12 +380,12 @@ std::optional<std::uint64_t> WatchCore::relist(bool emit) {
       view_complete_ = true;
       return generation;
     }
-    for (const auto& [key, doc] : known_)
-      if (!fresh.count(key)) gone.push_back(doc);
+    for (const auto& [key, known] : known_)
+      if (!fresh.count(key)) gone.push_back(known.doc);
     view_complete_ = true;
   }
   for (auto& doc : gone) apply(Event::Type::removed, std::move(doc), at, true);
-  for (auto& [key, doc] : fresh) apply(Event::Type::added, std::move(doc), at, true);
+  for (auto& [key, known] : fresh) apply(Event::Type::added, std::move(known.doc), at, true);
   return generation;
 }
 
@@ -393,6 +403,26 @@ void Watch::stop() { core_->stop(); }
 bool Watch::stopped() const { return core_->finished(); }
 std::uint64_t Watch::last_event_id() const { return core_->last_event_id(); }
 std::vector<Device> Watch::devices() const { return core_->devices(); }
+
+// ---- DeviceView ----------------------------------------------------------------------
+
+DeviceView::DeviceView(std::shared_ptr<WatchCore> core) : core_(std::move(core)) {}
+DeviceView::DeviceView(DeviceView&&) noexcept = default;
+DeviceView& DeviceView::operator=(DeviceView&&) noexcept = default;
+DeviceView::~DeviceView() {
+  if (core_) core_->stop();
+}
+std::vector<Device> DeviceView::devices() const {
+  // A view that no longer follows the table must not pass for one that does.
+  if (core_->finished()) {
+    if (auto e = core_->end_error()) std::rethrow_exception(e);
+    throw Error(ErrorCode::cancelled, "the device view was stopped");
+  }
+  return core_->devices();
+}
+bool DeviceView::connected() const { return core_->connected(); }
+std::uint64_t DeviceView::last_event_id() const { return core_->last_event_id(); }
+void DeviceView::stop() { core_->stop(); }
 
 // ---- Subscription --------------------------------------------------------------------
 

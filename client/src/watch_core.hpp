@@ -27,6 +27,7 @@ class WatchCore {
   // throws the error of that first attempt. `on_end` runs on the thread as it ends.
   void start(Sink sink, StatusSink status, EndSink on_end);
   void start_pull();  // events go to a queue that next() reads
+  void start_view();  // events only change the view (a DeviceView): nothing queued
 
   void stop();  // idempotent; joins, unless called from the watch's own thread
   bool finished() const;
@@ -34,6 +35,7 @@ class WatchCore {
   std::exception_ptr end_error() const;
   std::uint64_t last_event_id() const;
   std::vector<Device> devices() const;
+  bool connected() const { return connected_; }
   std::optional<Event> next(std::optional<std::chrono::milliseconds> timeout);
 
  private:
@@ -60,7 +62,13 @@ class WatchCore {
 
   mutable std::mutex mutex_;
   std::condition_variable cv_;
-  std::map<std::string, nlohmann::json> known_;  // the view: id -> device document
+  // One device of the view: the document (compared with what arrives) and the Device
+  // made of it once, so that devices() is a copy, not a parse of every document.
+  struct Known {
+    nlohmann::json doc;
+    Device device;
+  };
+  std::map<std::string, Known> known_;  // the view: id -> device
   bool view_complete_ = false;  // known_ came from a list (else from events only)
   std::optional<std::uint64_t> last_id_;
   // The generation of the last list: stream events up to it are already in the
@@ -68,6 +76,7 @@ class WatchCore {
   std::uint64_t listed_at_ = 0;
   std::deque<Event> queue_;  // pull mode
   std::atomic<bool> stop_{false};
+  std::atomic<bool> connected_{false};  // the stream is open (as last told to status())
   bool first_done_ = false;
   std::exception_ptr first_error_;
   bool finished_ = false;

@@ -3,6 +3,11 @@
 //                                                   on stdout until stdin closes
 //   rsdiscovery_test_driver wait-for ENDPOINT SERIAL SECONDS
 //                                                   prints the device id, or exits 1
+//   rsdiscovery_test_driver view ENDPOINT            a DeviceView; each line on stdin is a
+//                                                   command: "list" prints the view's devices
+//                                                   ({"connected":..,"devices":[document..]})
+//                                                   or the Error devices() threw; "stop" stops
+//                                                   the view; the input's end ends it
 //   rsdiscovery_test_driver describe ENDPOINT ID    prints the typed Description back as
 //                                                   JSON (from the struct's members, not its
 //                                                   json); an Error: its code and status, exit 3
@@ -58,6 +63,27 @@ int main(int argc, char** argv) {
       while (std::getline(std::cin, ignored)) {
       }
       sub.stop();
+      return 0;
+    }
+    if (mode == "view") {
+      auto view = client.view();
+      line("{\"ready\":true}");
+      std::string command;
+      while (std::getline(std::cin, command)) {
+        if (command == "stop") {
+          view.stop();
+          line("{\"stopped\":true}");
+          continue;
+        }
+        try {
+          std::string out = std::string("{\"connected\":") + (view.connected() ? "true" : "false") + ",\"devices\":[";
+          for (const auto& d : view.devices()) out += (out.back() == '[' ? "" : ",") + d.json;
+          line(out + "]}");
+        } catch (const rsdiscovery::Error& e) {
+          line(std::string("{\"error\":") + quote(rsdiscovery::to_string(e.code())) + ",\"message\":" +
+               quote(e.what()) + "}");
+        }
+      }
       return 0;
     }
     if (mode == "wait-for" && argc == 5) {
