@@ -1,5 +1,6 @@
 // rsd-bench-client-list: in-process list of the daemon's devices through the client
-// library (rsdiscovery::Client::list), timed call by call, for bench/run.
+// library, timed call by call, for bench/run: rsdiscovery::Client::list (a request to
+// the daemon each call) and a kept rsdiscovery::DeviceView's devices() (no request).
 //
 //   rsd-bench-client-list ENDPOINT [ITERATIONS] [WARMUP]
 //
@@ -8,8 +9,10 @@
 // list it holds, so the same run also times both alone, as its anchors: copying the
 // list (what any call returning it by value pays) and the same request answered 304 on
 // a plain socket of this process (what asking the daemon at all costs). ENDPOINT is
-// unix:PATH or http://127.0.0.1:PORT. Prints one JSON object: devices, iterations,
-// microseconds (min, p10, median, p90, p99, max) and the anchors' medians.
+// unix:PATH or http://127.0.0.1:PORT. A DeviceView's list is a copy of the view it
+// keeps, so copying the list is its anchor too. Prints one JSON object: devices,
+// iterations, microseconds (min, p10, median, p90, p99, max), the view's median and p99,
+// and the anchors' medians.
 #include <rsdiscovery/rsdiscovery.hpp>
 
 #include <arpa/inet.h>
@@ -143,14 +146,26 @@ int main(int argc, char** argv) {
     }
     ::close(fd);
 
+    const auto view = client.view();
+    // Listed before view() returns; the check only guards what is timed below.
+    if (view.devices().size() != devices) throw std::runtime_error("the view holds another number of devices");
+    std::vector<double> view_us;
+    for (int i = 0; i < iterations + warmup; i++) {
+      const auto t0 = Clock::now();
+      const auto listed = view.devices();
+      if (i >= warmup) view_us.push_back(us_since(t0));
+      devices = listed.size();
+    }
+    std::sort(view_us.begin(), view_us.end());
+
     std::sort(us.begin(), us.end());
     auto at = [&](double p) { return us.empty() ? -1.0 : us[static_cast<std::size_t>(p * double(us.size() - 1) + 0.5)]; };
     std::printf(
         "{\"devices\": %zu, \"iterations\": %d, \"min_us\": %.2f, \"p10_us\": %.2f, \"median_us\": %.2f, "
         "\"p90_us\": %.2f, \"p99_us\": %.2f, \"max_us\": %.2f, \"copy_median_us\": %.2f, "
-        "\"request_304_median_us\": %.2f}\n",
+        "\"request_304_median_us\": %.2f, \"view_median_us\": %.2f, \"view_p99_us\": %.2f}\n",
         devices, iterations, at(0), at(0.10), at(0.50), at(0.90), at(0.99), at(1.0), median(copy_us),
-        median(request_us));
+        median(request_us), view_us[view_us.size() / 2], view_us[view_us.size() * 99 / 100]);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "rsd-bench-client-list: %s\n", e.what());
     return 1;

@@ -28,6 +28,9 @@ def test_bench_run_smoke(tmp_path):
     for row in s["http"]["rows"]:
         assert row["nginx"]["rps"]["n"] >= 1 and row["ratio"]["rps"]["n"] >= 1
     assert "/bin/true" in s["cli_cold"]["commands"]
+    for name in ("unix", "http"):  # the library's list and a kept view's, each beside its floor
+        e = s["client_library"]["endpoints"][name]
+        assert e["request_304_median_us"]["n"] >= 1 and e["view_median_us"]["n"] >= 1
     assert s["discovery"]["dds_floor"]["n"] >= 1
     assert s["removal"]["sigkill_to_removed"]["n"] >= 1
     assert s["librealsense"]["query_ms"]["n"] >= 1
