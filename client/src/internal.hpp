@@ -58,6 +58,13 @@ bool reports_complete(const nlohmann::json& doc);
 std::string devices_path(const DeviceFilter& filter);
 std::string percent_encode(std::string_view text);
 
+// What is read from the daemon at most, so that an endpoint that is not the daemon (or
+// a broken one) cannot make a client allocate without bound: a whole reply, and one
+// event of the stream (a line, or the data of one event). The daemon's largest answers
+// are far below: 1,000 devices list in about 0.5 MB, a device event is about 1 KB.
+constexpr std::size_t kMaxReply = std::size_t{64} << 20;
+constexpr std::size_t kMaxEvent = std::size_t{16} << 20;
+
 // ---- Server-Sent Events ------------------------------------------------------------
 struct SseMessage {
   std::string event;  // "message" when the stream named none
@@ -76,6 +83,7 @@ class SseParser {
 
  private:
   void line(std::string_view text);
+  [[noreturn]] static void too_large();  // beyond kMaxEvent: Error(malformed_reply)
   Sink sink_;
   std::string pending_;  // an incomplete line
   bool last_was_cr_ = false;

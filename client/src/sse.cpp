@@ -35,7 +35,13 @@ void SseParser::feed(std::string_view chunk) {
   if (start < chunk.size()) {
     last_was_cr_ = false;
     pending_.append(chunk.substr(start));
+    if (pending_.size() > kMaxEvent) too_large();
   }
+}
+
+void SseParser::too_large() {
+  throw Error(ErrorCode::malformed_reply, "malformed event stream from rs-discoveryd: an event larger than " +
+                                              std::to_string(kMaxEvent >> 20) + " MiB (not read)");
 }
 
 void SseParser::line(std::string_view text) {
@@ -81,6 +87,7 @@ void SseParser::line(std::string_view text) {
     if (has_data_) data_ += '\n';
     data_.append(value);
     has_data_ = true;
+    if (data_.size() > kMaxEvent) too_large();
   } else if (field == "id") {
     if (value.find('\0') == std::string_view::npos) {
       id_ = value;

@@ -244,6 +244,12 @@ IoEnd write_all(int fd, std::string_view data, Clock::time_point deadline, const
 // beyond, the buffer grows as bytes actually arrive.
 constexpr std::size_t kMaxReserve = 16 << 20;
 
+[[noreturn]] void too_large(const Endpoint& endpoint, const std::string& path) {
+  throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd at " + endpoint.to_string() +
+                                              ": the answer to GET " + path + " is larger than " +
+                                              std::to_string(kMaxReply >> 20) + " MiB (not read)");
+}
+
 // Appends what the socket has to `buffer`, waiting until `deadline` for something.
 IoEnd read_some(int fd, std::string& buffer, Clock::time_point deadline, const std::atomic<bool>& cancelled) {
   char chunk[16384];
@@ -439,6 +445,10 @@ Reply Transport::get_once(const std::string& path, std::optional<std::chrono::mi
       bool last = false;
       while (!last && !malformed) {
         if (take_chunk(c.buffer, reply.body, last, malformed)) continue;
+        if (reply.body.size() + c.buffer.size() > kMaxReply) {
+          drop_kept();
+          too_large(endpoint_, path);
+        }
         if (malformed || (end = read_some(c.fd, c.buffer, deadline, cancelled_)) != IoEnd::ok) break;
       }
       if (!last) {
@@ -448,6 +458,10 @@ Reply Transport::get_once(const std::string& path, std::optional<std::chrono::mi
       }
     } else if (head->content_length) {
       const std::size_t length = *head->content_length;
+      if (length > kMaxReply) {  // said at once: nothing of it is read
+        drop_kept();
+        too_large(endpoint_, path);
+      }
       // Room for the whole body at once, and the buffer itself handed over when it
       // holds just the body: a 51 KB list was copied three times on its way in.
       if (length <= kMaxReserve && c.buffer.capacity() < length) c.buffer.reserve(length);
@@ -466,6 +480,10 @@ Reply Transport::get_once(const std::string& path, std::optional<std::chrono::mi
       }
     } else {  // until the daemon closes
       while ((end = read_some(c.fd, c.buffer, deadline, cancelled_)) == IoEnd::ok) {
+        if (c.buffer.size() > kMaxReply) {
+          drop_kept();
+          too_large(endpoint_, path);
+        }
       }
       if (end != IoEnd::closed) {
         drop_kept();
@@ -592,6 +610,8 @@ void Transport::stream(const std::string& path, const std::string& last_event_id
       if (!on_data(c->buffer.data(), c->buffer.size())) return;
       c->buffer.clear();
     }
+    // A chunk is taken whole: one that never ends must not grow the buffer for ever.
+    if (c->buffer.size() > kMaxReply) too_large(endpoint_, path);
     end = read_some(c->fd, c->buffer, deadline(), cancelled_);
     if (end == IoEnd::cancelled || end == IoEnd::closed) return;  // ended, by us or the daemon
     if (end != IoEnd::ok) fail(static_cast<int>(end), idle_timeout);

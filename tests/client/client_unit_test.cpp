@@ -21,6 +21,7 @@
 #include <cstdlib>
 #include <deque>
 #include <filesystem>
+#include <map>
 #include <mutex>
 #include <thread>
 
@@ -124,6 +125,16 @@ std::vector<detail::SseMessage> parse_sse(const std::string& text, std::size_t c
   return out;
 }
 
+// Feeds `text` `times` times; the code of the Error thrown (cancelled: none).
+ErrorCode code_of_sse(detail::SseParser& p, const std::string& text, std::size_t times) {
+  try {
+    for (std::size_t i = 0; i < times; i++) p.feed(text);
+  } catch (const Error& e) {
+    return e.code();
+  }
+  return ErrorCode::cancelled;
+}
+
 TEST(Sse, ParsesTheDaemonsStreamInAnyChunking) {
   const std::string stream =
       "retry: 1000\n\n"
@@ -159,6 +170,30 @@ TEST(Sse, SkipsALeadingByteOrderMarkAndCountsComments) {
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].data, "x");
   EXPECT_EQ(p.comments(), 2u);
+}
+
+TEST(Sse, AnEventBeyondTheBoundIsAnErrorNotAnAllocation) {
+  const std::string mib(std::size_t{1} << 20, 'x');
+  for (const std::string line_start : {"data: ", ": a comment "}) {  // one line that never ends
+    detail::SseParser p([](detail::SseMessage&&) {});
+    p.feed(line_start);
+    std::size_t fed = 0;
+    try {
+      while (fed <= detail::kMaxEvent + mib.size()) {
+        p.feed(mib);
+        fed += mib.size();
+      }
+      ADD_FAILURE() << "fed " << fed << " bytes of '" << line_start << "' without an error";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::malformed_reply);
+      EXPECT_NE(std::string(e.what()).find("larger than 16 MiB"), std::string::npos) << e.what();
+      EXPECT_LE(fed, detail::kMaxEvent);
+    }
+  }
+  // Many lines of one event: the event's data is bounded too.
+  detail::SseParser p([](detail::SseMessage&&) {});
+  const std::string data_line = "data: " + std::string(1000, 'y') + "\n";
+  EXPECT_EQ(code_of_sse(p, data_line, detail::kMaxEvent / 1000 + 2), ErrorCode::malformed_reply);
 }
 
 // ---- documents -------------------------------------------------------------------------------
@@ -678,6 +713,125 @@ TEST(Client, MalformedRepliesAreNamed) {
       EXPECT_EQ(e.code(), ErrorCode::malformed_reply) << body;
       EXPECT_NE(std::string(e.what()).find("malformed reply"), std::string::npos) << e.what();
     }
+  }
+}
+
+// A stand-in for an endpoint that is not the daemon: on each connection it reads one
+// request head and hands the socket to `answer` (with the request's path), which
+// writes what it likes; connections stay open until the server goes.
+class RawServer {
+ public:
+  using Answer = std::function<void(int fd, const std::string& path)>;
+  explicit RawServer(Answer answer) : answer_(std::move(answer)) {
+    path_ = (std::filesystem::temp_directory_path() / ("rsd-client-raw-" + std::to_string(getpid()) + "-" +
+                                                        std::to_string(counter_++) + ".sock"))
+                .string();
+    listener_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_un a{};
+    a.sun_family = AF_UNIX;
+    std::snprintf(a.sun_path, sizeof a.sun_path, "%s", path_.c_str());
+    ::unlink(path_.c_str());
+    if (::bind(listener_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 || ::listen(listener_, 8) != 0)
+      throw std::runtime_error("cannot listen on " + path_);
+    thread_ = std::thread([this] { serve(); });
+  }
+  ~RawServer() {
+    ::shutdown(listener_, SHUT_RDWR);  // ends the accept
+    thread_.join();
+    for (int fd : open_) ::close(fd);
+    ::close(listener_);
+    ::unlink(path_.c_str());
+  }
+  std::string endpoint() const { return "unix:" + path_; }
+
+  // Writes `chunk` again and again until the client stops reading and goes.
+  static void flood(int fd, const std::string& chunk) {
+    while (::send(fd, chunk.data(), chunk.size(), MSG_NOSIGNAL) > 0) {
+    }
+  }
+
+ private:
+  void serve() {
+    for (;;) {
+      const int fd = ::accept4(listener_, nullptr, nullptr, SOCK_CLOEXEC);
+      if (fd < 0) return;
+      open_.push_back(fd);
+      std::string head;
+      char buf[4096];
+      while (head.find("\r\n\r\n") == std::string::npos) {
+        const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+        if (n <= 0) break;
+        head.append(buf, static_cast<std::size_t>(n));
+      }
+      const auto sp = head.find(' ');
+      answer_(fd, sp == std::string::npos ? "" : head.substr(sp + 1, head.find(' ', sp + 1) - sp - 1));
+    }
+  }
+  static inline std::atomic<int> counter_{0};
+  Answer answer_;
+  std::string path_;
+  int listener_ = -1;
+  std::vector<int> open_;
+  std::thread thread_;
+};
+
+void say(int fd, const std::string& text) { ::send(fd, text.data(), text.size(), MSG_NOSIGNAL); }
+
+TEST(Client, AnswersBeyondTheBoundAreRefusedNotRead) {
+  const std::string mib(std::size_t{1} << 20, ' ');
+  const std::map<std::string, RawServer::Answer> endpoints = {
+      {"a length beyond the bound", [](int fd, const std::string&) {
+         say(fd, "HTTP/1.1 200 OK\r\nContent-Type: application/json\r\nContent-Length: 1000000000000\r\n\r\n{");
+       }},
+      {"chunks without end", [&](int fd, const std::string&) {
+         say(fd, "HTTP/1.1 200 OK\r\nContent-Type: application/json\r\nTransfer-Encoding: chunked\r\n\r\n");
+         RawServer::flood(fd, "100000\r\n" + mib + "\r\n");
+       }},
+      {"one chunk without end", [&](int fd, const std::string&) {
+         say(fd, "HTTP/1.1 200 OK\r\nContent-Type: application/json\r\nTransfer-Encoding: chunked\r\n\r\n"
+                 "fffffffffff\r\n");
+         RawServer::flood(fd, mib);
+       }},
+      {"a body until a close that never comes", [&](int fd, const std::string&) {
+         say(fd, "HTTP/1.1 200 OK\r\nContent-Type: application/json\r\n\r\n");
+         RawServer::flood(fd, mib);
+       }},
+  };
+  for (const auto& [what, answer] : endpoints) {
+    RawServer server(answer);
+    Client c(server.endpoint());
+    try {
+      c.list_devices();
+      ADD_FAILURE() << what << ": listed";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::malformed_reply) << what;
+      EXPECT_NE(std::string(e.what()).find("the answer to GET /v1/devices is larger than 64 MiB (not read)"),
+                std::string::npos)
+          << what << ": " << e.what();
+    }
+  }
+}
+
+TEST(Watch, AnEndlessEventEndsTheWatchWithAnError) {
+  const std::string mib(std::size_t{1} << 20, 'x');
+  RawServer server([&](int fd, const std::string& path) {
+    if (path.rfind("/v1/devices", 0) == 0) {
+      const std::string list = R"({"generation":3,"devices":[],"complete":true})";
+      say(fd, "HTTP/1.1 200 OK\r\nContent-Type: application/json\r\nContent-Length: " +
+                  std::to_string(list.size()) + "\r\n\r\n" + list);
+      return;
+    }
+    say(fd, "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\n\r\nevent: added\nid: 4\ndata: ");
+    RawServer::flood(fd, mib);  // one data line, never ended
+  });
+  Client c(server.endpoint());
+  Watch w = c.watch();
+  try {
+    w.next(30s);
+    ADD_FAILURE() << "the watch went on";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::malformed_reply);
+    EXPECT_NE(std::string(e.what()).find("an event larger than 16 MiB"), std::string::npos) << e.what();
   }
 }
 
