@@ -159,3 +159,103 @@ def test_python_m_rsdiscovery(daemon_factory, server_factory):
     r = subprocess.run([sys.executable, "-m", "rsdiscovery", "--endpoint", "unix:/nonexistent/x.sock", "health"],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 3 and "/nonexistent/x.sock" in r.stderr
+
+
+class RawServer:
+    """An endpoint that is not the daemon: on each connection it reads one request head and
+    hands the socket to answer(sock, path), which writes what it likes."""
+
+    def __init__(self, path, answer):
+        import socket
+        import threading
+
+        self.listener = socket.socket(socket.AF_UNIX)
+        self.listener.bind(path)
+        self.listener.listen(8)
+        self.endpoint = "unix:" + path
+        self.open = []
+        self.answer = answer
+        self.thread = threading.Thread(target=self.serve, daemon=True)
+        self.thread.start()
+
+    def serve(self):
+        while True:
+            try:
+                conn, _ = self.listener.accept()
+            except OSError:
+                return
+            self.open.append(conn)
+            head = b""
+            while b"\r\n\r\n" not in head:
+                chunk = conn.recv(4096)
+                if not chunk:
+                    break
+                head += chunk
+            parts = head.split(b" ")
+            self.answer(conn, parts[1].decode() if len(parts) > 1 else "")
+
+    @staticmethod
+    def flood(conn, chunk):
+        """Writes chunk again and again until the client goes."""
+        try:
+            while True:
+                conn.sendall(chunk)
+        except OSError:
+            pass
+
+    def close(self):
+        import socket
+
+        self.listener.shutdown(socket.SHUT_RDWR)
+        self.listener.close()
+        for c in self.open:
+            c.close()
+
+
+def test_answers_beyond_the_bound_are_refused_not_read(tmp_path):
+    mib = b" " * (1 << 20)
+    head = b"HTTP/1.1 200 OK\r\nContent-Type: application/json\r\n"
+    answers = {
+        "a length beyond the bound": lambda c, p: c.sendall(head + b"Content-Length: 1000000000000\r\n\r\n{"),
+        "chunks without end": lambda c, p: (c.sendall(head + b"Transfer-Encoding: chunked\r\n\r\n"),
+                                            RawServer.flood(c, b"100000\r\n" + mib + b"\r\n")),
+        "a body until a close that never comes": lambda c, p: (c.sendall(head + b"\r\n"), RawServer.flood(c, mib)),
+    }
+    for n, (what, answer) in enumerate(answers.items()):
+        server = RawServer(str(tmp_path / f"raw{n}.sock"), answer)
+        try:
+            with pytest.raises(rsdiscovery.MalformedReply,
+                               match="the answer to GET /v1/devices is larger than 64 MiB"):
+                rsdiscovery.list_devices(endpoint=server.endpoint, complete_timeout=0)
+        finally:
+            server.close()
+
+
+def test_an_endless_event_ends_the_watch(tmp_path):
+    listed = json.dumps({"generation": 3, "devices": [], "complete": True}).encode()
+
+    def answer(conn, path):
+        if path.startswith("/v1/devices"):
+            conn.sendall(b"HTTP/1.1 200 OK\r\nContent-Type: application/json\r\nContent-Length: %d\r\n\r\n%s"
+                         % (len(listed), listed))
+            return
+        conn.sendall(b"HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\n\r\nevent: added\nid: 4\ndata: ")
+        RawServer.flood(conn, b"x" * (1 << 20))  # one data line, never ended
+
+    server = RawServer(str(tmp_path / "raw.sock"), answer)
+    try:
+        with pytest.raises(rsdiscovery.MalformedReply, match="an event larger than 16 MiB"):
+            for _ in rsdiscovery.watch(endpoint=server.endpoint, reconnect=False):
+                pass
+    finally:
+        server.close()
+
+
+def test_a_character_split_between_two_reads_of_the_stream_stays_one():
+    from rsdiscovery._client import _SseParser
+
+    text = 'event: added\nid: 7\ndata: {"id":"a","name":"Kamera Gr\u00fc\u00dfe \u2014 \U0001F4F7"}\n\n'.encode()
+    for cut in range(1, len(text)):  # every place a read can end, inside a character too
+        p = _SseParser()
+        events = p.feed(text[:cut]) + p.feed(text[cut:])
+        assert events == [("added", '{"id":"a","name":"Kamera Gr\u00fc\u00dfe \u2014 \U0001F4F7"}', "7")], cut

@@ -1,6 +1,7 @@
 """The client: HTTP over a Unix socket or TCP, Server-Sent Events, resumable watches."""
 from __future__ import annotations
 
+import codecs
 import http.client
 import json
 import os
@@ -244,18 +245,29 @@ class Event:
     synthetic: bool = False
 
 
+# What is read from the daemon at most, so that an endpoint that is not the daemon (or a
+# broken one) cannot make a client allocate without bound: a whole reply, and one event of
+# the stream. The daemon's largest answers are far below (1,000 devices: about 0.5 MB).
+_MAX_REPLY = 64 << 20
+_MAX_EVENT = 16 << 20
+
+
 class _SseParser:
-    """Incremental Server-Sent Events parser (lines end in LF, CR or CRLF)."""
+    """Incremental Server-Sent Events parser of the stream's bytes (lines end in LF, CR or
+    CRLF). The bytes are decoded as they come, so a character split between two reads is
+    still one character."""
 
     def __init__(self) -> None:
+        self._decoder = codecs.getincrementaldecoder("utf-8")("replace")
         self._buf = ""
         self._event = ""
         self._data: List[str] = []
+        self._data_size = 0
         self._id: Optional[str] = None
 
-    def feed(self, text: str) -> List[Tuple[str, str, Optional[str]]]:
+    def feed(self, chunk: bytes) -> List[Tuple[str, str, Optional[str]]]:
         out: List[Tuple[str, str, Optional[str]]] = []
-        self._buf += text
+        self._buf += self._decoder.decode(chunk)
         while True:
             i = min((p for p in (self._buf.find("\n"), self._buf.find("\r")) if p >= 0), default=-1)
             if i < 0:
@@ -268,7 +280,7 @@ class _SseParser:
             if line == "":
                 if self._data or self._event:
                     out.append((self._event or "message", "\n".join(self._data), self._id))
-                self._event, self._data, self._id = "", [], None
+                self._event, self._data, self._id, self._data_size = "", [], None, 0
             elif line.startswith(":"):
                 continue
             else:
@@ -279,9 +291,19 @@ class _SseParser:
                     self._event = value
                 elif key == "data":
                     self._data.append(value)
+                    self._data_size += len(value)
+                    if self._data_size > _MAX_EVENT:
+                        raise self.too_large()
                 elif key == "id" and "\0" not in value:
                     self._id = value
+        if len(self._buf) > _MAX_EVENT:  # a line that does not end
+            raise self.too_large()
         return out
+
+    @staticmethod
+    def too_large() -> MalformedReply:
+        return MalformedReply(f"malformed event stream from rs-discoveryd: an event larger than "
+                              f"{_MAX_EVENT >> 20} MiB (not read)")
 
 
 _STOP = object()
@@ -511,7 +533,7 @@ class Watcher:
                     break  # the stream broke (or went idle): reconnect
                 if not chunk:
                     break
-                for kind, data, ident in parser.feed(chunk.decode("utf-8", "replace")):
+                for kind, data, ident in parser.feed(chunk):
                     self._handle(kind, data, ident)
             return True
         finally:
@@ -602,7 +624,12 @@ class Client:
         try:
             conn.request("GET", path, headers={"Accept": "application/json"})
             resp = conn.getresponse()
-            return resp.status, {k.lower(): v for k, v in resp.getheaders()}, resp.read()
+            if resp.length is not None and resp.length > _MAX_REPLY:  # said at once: nothing of it is read
+                raise self._too_large(path)
+            body = resp.read(_MAX_REPLY + 1)
+            if len(body) > _MAX_REPLY:
+                raise self._too_large(path)
+            return resp.status, {k.lower(): v for k, v in resp.getheaders()}, body
         except socket.timeout:
             raise RSDiscoveryError(f"rs-discoveryd at {self.endpoint} did not answer within {timeout:g}s") \
                 from None
@@ -612,6 +639,10 @@ class Client:
             raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: {e}") from None
         finally:
             conn.close()
+
+    def _too_large(self, path: str) -> MalformedReply:
+        return MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: the answer to GET {path} "
+                              f"is larger than {_MAX_REPLY >> 20} MiB (not read)")
 
     def _status_error(self, path: str, status: int, body: bytes) -> RSDiscoveryError:
         try:
