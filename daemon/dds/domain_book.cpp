@@ -295,6 +295,12 @@ std::map<std::string, nlohmann::json> DomainBook::announcements() const {
   return out;
 }
 
+std::set<std::string> DomainBook::topic_roots() const {
+  std::set<std::string> out;
+  for (const auto& [id, device] : devices_) out.insert(device.doc[model::key::topic_root].get<std::string>());
+  return out;
+}
+
 void DomainBook::reject(const std::string& reason, const std::string& detail, const std::string& sender) {
   ++rejected_[reason];
   std::uint64_t suppressed = 0;

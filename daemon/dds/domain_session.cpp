@@ -256,17 +256,20 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
 
   const auto matched = matched_writers(reader_);
   DomainBook::Due due;
-  std::map<std::string, nlohmann::json> present;  // topic-root -> announcement
+  std::set<std::string> present;                 // topic-roots in the table now
+  std::map<std::string, nlohmann::json> eager;  // topic-root -> announcement, to describe
   {
     std::lock_guard lock(mutex_);
     due = book_.tick(now, matched);
     if (due.refresh) ++refreshes_;
-    present = book_.announcements();
+    present = book_.topic_roots();
+    // Copied four times a second only where asked for: with 100 devices the copy of
+    // every announcement was ~3.5 ms of CPU a second, most of what the daemon spent idle.
+    if (options_.describe_eagerly && !due.refresh) eager = book_.announcements();
   }
   fetcher_.tick(now, [&](const std::string& topic_root) { return present.count(topic_root) > 0; });
-  if (options_.describe_eagerly && !due.refresh)
-    for (const auto& [topic_root, announcement] : present)
-      if (!announcement.value("recovery", false)) fetcher_.prefetch(topic_root, announcement);
+  for (const auto& [topic_root, announcement] : eager)
+    if (!announcement.value("recovery", false)) fetcher_.prefetch(topic_root, announcement);
   if (due.refresh) {
     rebuild();  // the reader follows after the settle time
     return options_.settle;
