@@ -100,8 +100,8 @@ class DomainBook {
   std::optional<nlohmann::json> announcement(const std::string& topic_root) const;
   // topic-root -> the device as last announced, for every device.
   std::map<std::string, nlohmann::json> announcements() const;
-  // The topic-roots of every device: what the session's tick needs each time (a copy
-  // of every announcement there was most of the daemon's idle CPU).
+  // The topic-roots of every device: all the session's tick needs each time (copying
+  // every announcement instead was most of the daemon's idle CPU).
   std::set<std::string> topic_roots() const;
   // devices, accepted, stopping, rejected, lost_servers.
   void fill(DomainStatus& status) const;
