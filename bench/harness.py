@@ -697,6 +697,18 @@ http {{
         if sse.wait(lambda x: "connected" in x, 15, "event stream")["connected"] != 1:
             raise BenchError("the event stream did not connect")
         disc, disc_floor, stop, stop_floor, kill, kill_floor = [], [], [], [], [], []
+        over_floor, kill_over, floor_missed = [], [], []
+
+        def floor_sample(match, what):
+            """The anchor's sample, or None when it missed one (seen once on a host at load
+            14: the daemon had the `stopping`, the floor reader never did): a missed anchor
+            sample is counted and reported, it does not void the daemon's measurements."""
+            try:
+                return floor.wait(lambda x: x.get("kind") == "sample" and match(x), 15, what)
+            except BenchError:
+                floor_missed.append(what)
+                return None
+
         server = conftest.RealddsServer(self.d_lat, [], name="bench-latency")
         self.cleanup.append(server.kill)
         for run in range(self.p["lat_reps"]):
@@ -707,18 +719,19 @@ http {{
             if ev["event"] != "added":
                 raise BenchError(f"expected added, got {ev}")
             disc.append((ev["t"] - reply["t"]) * 1000)
-            fl = floor.wait(lambda x: x.get("kind") == "sample" and root in x["data"] and "stopping" not in x["data"],
-                            15, "the floor's sample")
-            disc_floor.append((fl["t"] - reply["t"]) * 1000)
+            fl = floor_sample(lambda x: root in x["data"] and "stopping" not in x["data"], "the floor's sample")
+            if fl:
+                disc_floor.append((fl["t"] - reply["t"]) * 1000)
+                over_floor.append(disc[-1] - disc_floor[-1])
             sent = time.monotonic()
             reply = server.command(cmd="disconnect", **{"topic-root": root})
             ev = sse.wait(lambda x: x.get("event") in ("added", "changed", "removed"), 15, "removed")
             if ev["event"] != "removed":
                 raise BenchError(f"expected removed, got {ev}")
             stop.append((ev["t"] - sent) * 1000)
-            fl = floor.wait(lambda x: x.get("kind") == "sample" and root in x["data"] and "stopping" in x["data"],
-                            15, "the floor's stopping sample")
-            stop_floor.append((fl["t"] - sent) * 1000)
+            fl = floor_sample(lambda x: root in x["data"] and "stopping" in x["data"], "the floor's stopping sample")
+            if fl:
+                stop_floor.append((fl["t"] - sent) * 1000)
         server.quit()
         floor.drain()
         for run in range(self.p["kill_reps"]):
@@ -740,6 +753,7 @@ http {{
             try:
                 fl = floor.wait(lambda x: x.get("kind") == "matched", 30, "the floor's unmatch")
                 kill_floor.append((fl["t"] - t) * 1000)
+                kill_over.append(kill[-1] - kill_floor[-1])
             except BenchError:
                 pass
             victim.proc.wait()
@@ -749,7 +763,8 @@ http {{
         return {"unit": "ms", "repetitions": self.p["lat_reps"],
                 "origin": "the realdds server's reply right after broadcast() (CLOCK_MONOTONIC)",
                 "broadcast_to_added": stats(disc), "dds_floor": stats(disc_floor),
-                "over_floor": stats([a - b for a, b in zip(disc, disc_floor)]),
+                "over_floor": stats(over_floor),  # paired per repetition, where the floor had it
+                "floor_missed": floor_missed,
                 "floor_what": "bare Cyclone DDS reader (PyPI cyclonedds, Python listener) of realsense/device-info",
                 "removal": {"unit": "ms",
                             "stopping_origin": "the harness writing the `disconnect` command to the realdds server "
@@ -757,7 +772,7 @@ http {{
                             "stopping_to_removed": stats(stop), "stopping_floor": stats(stop_floor),
                             "sigkill_repetitions": self.p["kill_reps"], "sigkill_to_removed": stats(kill),
                             "sigkill_floor_unmatched": stats(kill_floor),
-                            "sigkill_over_floor": stats([a - b for a, b in zip(kill, kill_floor)]),
+                            "sigkill_over_floor": stats(kill_over),
                             "lease_note": "realdds servers' participant lease: the floor reader's unmatch is when "
                                           "Cyclone itself gives the writer up"}}
 
@@ -931,7 +946,8 @@ http {{
             over = med(di["over_floor"])
             rows.append({"comparison": "discovery: realdds `broadcast()` → `added` event",
                          "rs_discoveryd": f"{f(med(di['broadcast_to_added']), 2)} ms{spread(di['broadcast_to_added'], 2)}",
-                         "anchor": f"bare Cyclone reader {f(med(di['dds_floor']), 2)} ms{spread(di['dds_floor'], 2)}",
+                         "anchor": f"bare Cyclone reader {f(med(di['dds_floor']), 2)} ms{spread(di['dds_floor'], 2)}"
+                                   + (f"; it missed {len(di['floor_missed'])} sample(s)" if di.get("floor_missed") else ""),
                          "ratio": f"+{f(over, 2)} ms over the floor",
                          "target": "≤ floor + 2 ms: " + verdict(over is not None and over <= 2.0)})
         rm = R.get("removal", {})
