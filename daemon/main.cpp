@@ -94,6 +94,8 @@ int main(int argc, char** argv) {
   session_options.cyclone_config = config.cyclonedds_config;
   session_options.book.max_devices_per_participant = config.max_devices_per_participant;
   session_options.book.max_devices_per_domain = config.max_devices_per_domain;
+  session_options.book.max_writers_per_participant = config.max_writers_per_participant;
+  session_options.book.max_writers_per_domain = config.max_writers_per_domain;
   session_options.describe_timeout = std::chrono::seconds(config.describe_timeout_s);
   session_options.describe_eagerly = config.describe_eagerly_all;
   session_options.describe_eagerly_in = {config.describe_eagerly.begin(), config.describe_eagerly.end()};

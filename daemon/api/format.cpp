@@ -271,6 +271,18 @@ std::string render_metrics(const MetricsInput& in) {
   for (const auto& d : in.domains)
     w.sample("rsd_domain_lost_servers", {{"domain", std::to_string(d.domain)}}, d.lost_servers);
 
+  w.family("rsd_device_info_writers", "gauge", "device-info writers matched and followed.");
+  for (const auto& d : in.domains)
+    w.sample("rsd_device_info_writers", {{"domain", std::to_string(d.domain)}}, d.writers);
+
+  w.family("rsd_writers_refused_total", "counter", "device-info writers refused by a writer cap, by reason.");
+  for (const auto& d : in.domains)
+    for (const char* reason : {"participant-writer-limit", "domain-writer-limit"}) {  // 0 until it happens
+      const auto n = d.writers_refused.find(reason);
+      w.sample("rsd_writers_refused_total", {{"domain", std::to_string(d.domain)}, {"reason", reason}},
+               n == d.writers_refused.end() ? 0 : n->second);
+    }
+
   if (in.usb) {
     w.family("rsd_usb_up", "gauge", "1 when local USB is watched (hotplug or polling), by state.");
     w.sample("rsd_usb_up", {{"state", in.usb->state}},

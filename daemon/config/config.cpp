@@ -175,10 +175,15 @@ void apply_config_json(const std::string& text, Config& config) {
       const std::size_t n = parse_limit(value.is_number_integer() ? std::to_string(value.get<long long>())
                                                                  : value.dump(), at);
       (key == "max-devices-per-domain" ? config.max_devices_per_domain : config.max_devices_per_participant) = n;
+    } else if (key == "max-writers-per-participant" || key == "max-writers-per-domain") {
+      const std::size_t n = parse_limit(value.is_number_integer() ? std::to_string(value.get<long long>())
+                                                                 : value.dump(), at);
+      (key == "max-writers-per-domain" ? config.max_writers_per_domain : config.max_writers_per_participant) = n;
     } else {
       throw ConfigError(where + ": unknown key \"" + key +
                         "\" (known: domains, socket, http, usb, participant-name, log-level, "
-                        "cyclonedds-config, max-devices-per-participant, max-devices-per-domain, describe-timeout, describe-eagerly, "
+                        "cyclonedds-config, max-devices-per-participant, max-devices-per-domain, max-writers-per-participant, "
+                        "max-writers-per-domain, describe-timeout, describe-eagerly, "
                         "allowed-hosts, max-clients)");
     }
   }
@@ -189,6 +194,7 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
   Config flags_only;  // collects what the flags set, to apply over the file
   bool set_domains = false, set_socket = false, set_http = false, set_usb = false, set_name = false,
        set_level = false, set_cyclone = false, set_per_participant = false, set_per_domain = false,
+       set_writers_participant = false, set_writers_domain = false,
        set_describe = false, set_eager = false, set_hosts = false, set_clients = false;
   std::string config_file;
   bool explicit_config = false;
@@ -261,6 +267,12 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
     } else if (arg == "--max-devices-per-domain") {
       flags_only.max_devices_per_domain = parse_limit(next(), arg);
       set_per_domain = true;
+    } else if (arg == "--max-writers-per-participant") {
+      flags_only.max_writers_per_participant = parse_limit(next(), arg);
+      set_writers_participant = true;
+    } else if (arg == "--max-writers-per-domain") {
+      flags_only.max_writers_per_domain = parse_limit(next(), arg);
+      set_writers_domain = true;
     } else {
       throw ConfigError("unknown argument '" + arg + "' (see --help)");
     }
@@ -285,6 +297,8 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
   if (set_cyclone) config.cyclonedds_config = flags_only.cyclonedds_config;
   if (set_per_participant) config.max_devices_per_participant = flags_only.max_devices_per_participant;
   if (set_per_domain) config.max_devices_per_domain = flags_only.max_devices_per_domain;
+  if (set_writers_participant) config.max_writers_per_participant = flags_only.max_writers_per_participant;
+  if (set_writers_domain) config.max_writers_per_domain = flags_only.max_writers_per_domain;
   if (set_describe) config.describe_timeout_s = flags_only.describe_timeout_s;
   if (set_hosts) config.allowed_hosts = flags_only.allowed_hosts;
   if (set_clients) config.max_clients = flags_only.max_clients;
@@ -332,6 +346,12 @@ Options:
                              beyond it device-info is refused and counted
       --max-devices-per-domain N
                              devices one DDS domain may hold (default: 1024)
+      --max-writers-per-participant N
+                             device-info writers of one DDS participant the daemon follows
+                             (default: 256; a realdds server has one per device, plus one);
+                             beyond it a writer is refused and counted
+      --max-writers-per-domain N
+                             device-info writers of one DDS domain (default: 2048)
       --describe-timeout S   how long fetching a network camera's description (streams,
                              options) from its server may take (default: 30)
       --describe-eagerly N|all
@@ -342,7 +362,7 @@ Options:
 
 Config file keys: domains, socket, http, usb, participant-name, log-level,
 cyclonedds-config, max-devices-per-participant, max-devices-per-domain,
-describe-timeout, describe-eagerly (true, false or a list of domains), allowed-hosts
+max-writers-per-participant, max-writers-per-domain, describe-timeout, describe-eagerly (true, false or a list of domains), allowed-hosts
 (a list), max-clients; otherwise the same meanings as the flags. The HTTP and socket
 settings (http, socket, allowed-hosts, max-clients) take effect at start, not on SIGHUP.
 

@@ -28,6 +28,9 @@ struct Config {
   // Caps against floods: a realdds server announces a handful of devices.
   std::size_t max_devices_per_participant = 128;
   std::size_t max_devices_per_domain = 1024;
+  // Device-info writers followed, against a host matching thousands of them.
+  std::size_t max_writers_per_participant = 256;
+  std::size_t max_writers_per_domain = 2048;
   // Camera Discovery: how long fetching one device's description may take
   // (seconds; the use case's limit is 30).
   int describe_timeout_s = 30;

@@ -22,16 +22,59 @@ DomainBook::DomainBook(SharedTable& table, BookOptions options)
 
 std::string DomainBook::prefix() const { return log::domain_prefix(options_.domain); }
 
-void DomainBook::writer_matched(Handle writer, WriterIdentity identity, Clock::time_point now) {
-  if (writers_.count(writer)) return;
+MatchedWriters::MatchedWriters(std::vector<WriterHandle> handles) : handles_(std::move(handles)) {
+  std::sort(handles_.begin(), handles_.end());
+  handles_.erase(std::unique(handles_.begin(), handles_.end()), handles_.end());
+}
+
+bool MatchedWriters::contains(WriterHandle handle) const {
+  return std::binary_search(handles_.begin(), handles_.end(), handle);
+}
+
+bool DomainBook::writer_matched(Handle writer, WriterIdentity identity, Clock::time_point now) {
+  if (writers_.count(writer)) return true;
+  if (refused_.count(writer)) return false;
+  std::string reason, detail;
+  if (writers_.size() >= options_.max_writers_per_domain) {
+    reason = "domain-writer-limit";
+    detail = "the domain has " + std::to_string(writers_.size()) + " device-info writers already";
+  } else if (const auto n = writers_of_.find(identity.participant_guid);
+             n != writers_of_.end() && n->second >= options_.max_writers_per_participant) {
+    reason = "participant-writer-limit";
+    detail = "its participant has " + std::to_string(n->second) + " device-info writers already";
+  }
+  if (!reason.empty()) {
+    refused_.insert(writer);
+    ++writers_refused_[reason];
+    std::uint64_t suppressed = 0;
+    if (g_reject_log.allow(std::to_string(options_.domain) + "/" + identity.participant_guid + "/" + reason,
+                           suppressed))
+      log::warning(prefix() + "refused device-info writer " + identity.guid + " of " + identity.participant_guid +
+                   " (" + identity.participant_name + "): " + reason + " (" + detail + ")" +
+                   (suppressed ? "; " + std::to_string(suppressed) + " more like it suppressed" : ""));
+    return false;
+  }
   log::debug([&] {
     return prefix() + "writer " + identity.guid + " of " + identity.participant_guid + " (" +
            identity.participant_name + ") matched";
   });
+  ++writers_of_[identity.participant_guid];
   writers_.emplace(writer, Writer{std::move(identity), now, false});
+  return true;
+}
+
+std::map<DomainBook::Handle, DomainBook::Writer>::iterator DomainBook::erase_writer(
+    std::map<Handle, Writer>::iterator it) {
+  if (auto n = writers_of_.find(it->second.identity.participant_guid); n != writers_of_.end() && --n->second == 0)
+    writers_of_.erase(n);
+  return writers_.erase(it);
 }
 
 void DomainBook::sample(Handle handle, Parsed parsed) {
+  if (refused_.count(handle)) {  // counted once as a writer; its messages in bulk
+    ++rejected_["refused-writer"];
+    return;
+  }
   Writer* writer = nullptr;
   if (auto it = writers_.find(handle); it != writers_.end()) writer = &it->second;
   const std::string sender = writer ? writer->identity.guid : "unknown writer";
@@ -86,6 +129,7 @@ void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann:
     if (it != list.end()) list.erase(it);
     else ++per_participant_[w.participant_guid];
     list.emplace_back(w.guid, server);  // the latest announcer is shown
+    devices_of_writer_[w.guid].insert(id);
   }
   doc[model::key::server] = std::move(server);
   device.doc = doc;
@@ -119,6 +163,7 @@ bool DomainBook::drop_announcer(const std::string& id, const std::string& writer
   if (it == list.end()) return false;
   if (auto n = per_participant_.find(participant_of(writer_guid)); n != per_participant_.end() && --n->second == 0)
     per_participant_.erase(n);
+  unindex(writer_guid, id);
   const bool was_shown = std::next(it) == list.end();
   list.erase(it);
   if (list.empty()) {
@@ -144,16 +189,27 @@ void DomainBook::participant_gone(const std::string& guid, Clock::time_point now
     drop_announcer(id, writer, "its participant " + guid + " is gone (left, or its lease expired)");
   // A server that announced cameras and went without 'stopping' (a crash, a cut).
   if (!gone.empty()) lost_.writer_lost(guid, now);
-  std::erase_if(writers_, [&](const auto& w) { return w.second.identity.participant_guid == guid; });
+  for (auto it = writers_.begin(); it != writers_.end();)
+    it = it->second.identity.participant_guid == guid ? erase_writer(it) : std::next(it);
+}
+
+void DomainBook::unindex(const std::string& writer_guid, const std::string& id) {
+  if (auto of = devices_of_writer_.find(writer_guid); of != devices_of_writer_.end()) {
+    of->second.erase(id);
+    if (of->second.empty()) devices_of_writer_.erase(of);
+  }
 }
 
 void DomainBook::remove_device(const std::string& id, const std::string& why) {
   log::info(prefix() + "device " + id + " removed: " + why);
+  if (const auto dev = devices_.find(id); dev != devices_.end())
+    for (const auto& [writer, server] : dev->second.announcers) unindex(writer, id);
   table_.remove(id);
   devices_.erase(id);
 }
 
-void DomainBook::writer_left(Handle left, const std::set<Handle>& still_matched, Clock::time_point now) {
+void DomainBook::writer_left(Handle left, const MatchedWriters& still_matched, Clock::time_point now) {
+  std::erase_if(refused_, [&](Handle h) { return !still_matched.contains(h); });
   // While reconciling after a fresh reader, writers are still coming back, so
   // only the one that left loses its devices; the sweep comes at the deadline.
   if (!reconcile_at_) {
@@ -166,11 +222,39 @@ void DomainBook::writer_left(Handle left, const std::set<Handle>& still_matched,
   sweep(still_matched, &gone, now);
 }
 
-void DomainBook::sweep(const std::set<Handle>& still_matched, const std::string* only, Clock::time_point now) {
+void DomainBook::writer_gone(Handle left, Clock::time_point now) {
+  refused_.erase(left);
+  const auto it = writers_.find(left);
+  if (it == writers_.end()) return;
+  const std::string guid = it->second.identity.guid;
+  const std::string participant = it->second.identity.participant_guid;
+  erase_writer(it);
+  drop_writer_devices(guid, now);
+  forget_retries_if_gone(participant);
+}
+
+void DomainBook::drop_writer_devices(const std::string& writer_guid, Clock::time_point now) {
+  const auto of = devices_of_writer_.find(writer_guid);
+  if (of == devices_of_writer_.end()) return;
+  const std::set<std::string> ids = of->second;  // drop_announcer changes the index
+  for (const auto& id : ids)
+    if (drop_announcer(id, writer_guid, "its writer " + writer_guid + " is gone"))
+      lost_.writer_lost(participant_of(writer_guid), now);  // gone with its writer, not by 'stopping'
+}
+
+void DomainBook::forget_retries_if_gone(const std::string& participant_guid) {
+  if (writers_of_.count(participant_guid)) return;
+  silent_retries_.erase(participant_guid);
+  const auto of_it = [&](const std::string& guid) { return participant_of(guid) == participant_guid; };
+  std::erase_if(retried_writers_, of_it);
+  std::erase_if(idle_writers_, of_it);
+}
+
+void DomainBook::sweep(const MatchedWriters& still_matched, const std::string* only, Clock::time_point now) {
   std::set<std::string> alive;
   for (auto it = writers_.begin(); it != writers_.end();) {
-    if (!still_matched.count(it->first)) {
-      it = writers_.erase(it);
+    if (!still_matched.contains(it->first)) {
+      it = erase_writer(it);
     } else {
       alive.insert(it->second.identity.guid);
       ++it;
@@ -192,10 +276,8 @@ void DomainBook::sweep(const std::set<Handle>& still_matched, const std::string*
   }
   // Forget retry counts of servers that have no writer left, or a long-lived
   // daemon would keep one entry for every peer that ever came by.
-  std::set<std::string> with_writers;
-  for (const auto& [h, w] : writers_) with_writers.insert(w.identity.participant_guid);
-  std::erase_if(silent_retries_, [&](const auto& entry) { return !with_writers.count(entry.first); });
-  const auto of_a_server_gone = [&](const std::string& guid) { return !with_writers.count(participant_of(guid)); };
+  std::erase_if(silent_retries_, [&](const auto& entry) { return !writers_of_.count(entry.first); });
+  const auto of_a_server_gone = [&](const std::string& guid) { return !writers_of_.count(participant_of(guid)); };
   std::erase_if(retried_writers_, of_a_server_gone);
   std::erase_if(idle_writers_, of_a_server_gone);
 }
@@ -203,16 +285,20 @@ void DomainBook::sweep(const std::set<Handle>& still_matched, const std::string*
 void DomainBook::reader_made(Clock::time_point now) {
   lost_.reader_made(now);
   writers_.clear();  // handles were per reader; matches come again for the new one
+  writers_of_.clear();
+  refused_.clear();  // a refused writer may get in now, if there is room
   if (!devices_.empty()) reconcile_at_ = now + options_.reconcile_grace;
 }
 
 void DomainBook::participant_made() {
   writers_.clear();
+  writers_of_.clear();
+  refused_.clear();
   reconcile_at_.reset();  // the reader that follows begins it again
   lost_.participant_rebuilt();
 }
 
-DomainBook::Due DomainBook::tick(Clock::time_point now, const std::set<Handle>& still_matched) {
+DomainBook::Due DomainBook::tick(Clock::time_point now, const MatchedWriters& still_matched) {
   Due due;
   const auto verdict = lost_.check(now);
   for (const auto& guid : verdict.newly_lost)
@@ -225,8 +311,9 @@ DomainBook::Due DomainBook::tick(Clock::time_point now, const std::set<Handle>& 
     due.refresh = true;
     return due;
   }
-  if (reconcile_at_ && now >= *reconcile_at_) {
+  if (reconcile_due(now)) {
     reconcile_at_.reset();
+    std::erase_if(refused_, [&](Handle h) { return !still_matched.contains(h); });
     sweep(still_matched, nullptr, now);
   }
   // Per server, the writers that matched a while ago and sent nothing, but for
@@ -281,6 +368,7 @@ void DomainBook::forget_devices() {
   for (const auto& [id, device] : devices_) table_.remove(id);
   devices_.clear();
   per_participant_.clear();
+  devices_of_writer_.clear();
 }
 
 std::optional<nlohmann::json> DomainBook::announcement(const std::string& topic_root) const {
@@ -315,6 +403,8 @@ void DomainBook::fill(DomainStatus& s) const {
   s.stopping = stopping_;
   s.rejected = rejected_;
   s.lost_servers = lost_.size();
+  s.writers = writers_.size();
+  s.writers_refused = writers_refused_;
 }
 
 }  // namespace rsd::dds

@@ -15,14 +15,32 @@
 
 #include <chrono>
 #include <cstdint>
+#include <initializer_list>
 #include <map>
 #include <optional>
 #include <set>
 #include <string>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
 namespace rsd::dds {
+
+using WriterHandle = std::uint64_t;  // a reader's instance handle of a writer
+
+// The writers a reader has matched, as Cyclone lists them (any number: a site, or
+// one hostile host, may have tens of thousands): sorted once, then looked up.
+class MatchedWriters {
+ public:
+  MatchedWriters() = default;
+  MatchedWriters(std::initializer_list<WriterHandle> handles) : MatchedWriters(std::vector<WriterHandle>(handles)) {}
+  explicit MatchedWriters(std::vector<WriterHandle> handles);  // sorted here, repeats dropped
+  bool contains(WriterHandle handle) const;
+  std::size_t size() const { return handles_.size(); }
+
+ private:
+  std::vector<WriterHandle> handles_;
+};
 
 struct BookOptions {
   int domain = 0;
@@ -43,6 +61,15 @@ struct BookOptions {
   // beyond a cap are refused (counted as rejected, logged with a rate limit).
   std::size_t max_devices_per_participant = 128;
   std::size_t max_devices_per_domain = 1024;
+  // Writers are not devices: a host can match any number of device-info writers
+  // that announce nothing (2,500 from one process, measured), and each one
+  // tracked costs memory and work per departure. A realdds server has one per
+  // device and at most one more; beyond a cap a writer is refused: counted
+  // (DomainStatus::writers_refused), logged with a rate limit, its samples
+  // dropped, until a new reader (it is not admitted when room frees up: a writer
+  // broadcasts on a match, and it matched already).
+  std::size_t max_writers_per_participant = 256;
+  std::size_t max_writers_per_domain = 2048;
   // After the reader or the participant is made anew, a device whose writer has
   // not matched again by then is gone. Matching a settled participant's writers
   // takes milliseconds; the grace is also how late a server killed during a
@@ -62,18 +89,23 @@ struct WriterIdentity {
 class DomainBook {
  public:
   using Clock = std::chrono::steady_clock;
-  using Handle = std::uint64_t;  // the reader's instance handle of a writer
+  using Handle = WriterHandle;
 
   DomainBook(SharedTable& table, BookOptions options);
 
-  // A writer matched the current reader (or was first heard from).
-  void writer_matched(Handle writer, WriterIdentity identity, Clock::time_point now);
-  bool knows(Handle writer) const { return writers_.count(writer) > 0; }
+  // A writer matched the current reader (or was first heard from). False: it is
+  // refused by a writer cap (now or before), and so are its samples.
+  bool writer_matched(Handle writer, WriterIdentity identity, Clock::time_point now);
+  // Tracked or refused: nothing more to ask Cyclone about it.
+  bool knows(Handle writer) const { return writers_.count(writer) > 0 || refused_.count(writer) > 0; }
   // A device-info sample from `writer` (one not known: an unknown sender).
   void sample(Handle writer, Parsed parsed);
   // `left` was unmatched; `still_matched` is every writer the reader has now
   // (several can leave at once, a whole server, yet the status names one).
-  void writer_left(Handle left, const std::set<Handle>& still_matched, Clock::time_point now);
+  void writer_left(Handle left, const MatchedWriters& still_matched, Clock::time_point now);
+  // Exactly `left` was unmatched and no other writer came or went meanwhile (the
+  // listener's status says so): no need to list every writer the reader has.
+  void writer_gone(Handle left, Clock::time_point now);
 
   // A new reader: writers match it anew; devices whose writer has not by
   // reconcile_grace are dropped then.
@@ -90,9 +122,12 @@ class DomainBook {
     bool make_reader_anew = false;  // a server's broadcast was lost: make it broadcast again
     bool refresh = false;           // a server was lost: make the participant anew
   };
+  // Whether tick() at `now` reconciles, and so needs every writer the reader has
+  // (listing them four times a second for nothing cost CPU with thousands).
+  bool reconcile_due(Clock::time_point now) const { return reconcile_at_ && now >= *reconcile_at_; }
   // The timers: reconciliation, silent writers, lost servers. `still_matched` as
-  // for writer_left().
-  Due tick(Clock::time_point now, const std::set<Handle>& still_matched);
+  // for writer_left(); read only when reconcile_due(now).
+  Due tick(Clock::time_point now, const MatchedWriters& still_matched);
 
   // Removes this domain's devices from the table (leaving the domain for good).
   void forget_devices();
@@ -130,19 +165,34 @@ class DomainBook {
   // else shows the latest remaining announcer. Returns whether it left.
   bool drop_announcer(const std::string& id, const std::string& writer_guid, const std::string& why);
   void remove_device(const std::string& id, const std::string& why);
+  void unindex(const std::string& writer_guid, const std::string& id);  // from devices_of_writer_
   // Forgets writers no longer matched; drops the announcements of those gone
   // (only of `only`, while reconciling).
-  void sweep(const std::set<Handle>& still_matched, const std::string* only, Clock::time_point now);
+  void sweep(const MatchedWriters& still_matched, const std::string* only, Clock::time_point now);
+  // Drops the devices `writer_guid` announced (a writer gone); a device that left
+  // with it may mean its server is lost.
+  void drop_writer_devices(const std::string& writer_guid, Clock::time_point now);
+  std::map<Handle, Writer>::iterator erase_writer(std::map<Handle, Writer>::iterator it);
+  // Forgets the silent-writer retries of a server with no writer left, or a
+  // long-lived daemon would keep an entry for every peer that ever came by.
+  void forget_retries_if_gone(const std::string& participant_guid);
   void reject(const std::string& reason, const std::string& detail, const std::string& sender);
   std::string prefix() const;
 
   SharedTable& table_;
   BookOptions options_;
   std::map<Handle, Writer> writers_;                     // matched to the current reader
+  std::map<std::string, std::size_t> writers_of_;        // writers_ counted by participant GUID
+  std::unordered_set<Handle> refused_;                   // matched, over a writer cap
+  std::map<std::string, std::uint64_t> writers_refused_;  // by reason
   std::map<std::string, int> silent_retries_;            // by participant GUID
   std::set<std::string> retried_writers_;                // GUIDs silent when the reader was made anew
   std::set<std::string> idle_writers_;                   // GUIDs silent for that new reader too
   std::map<std::string, Announced> devices_;             // by device id
+  // writer GUID -> the ids of the devices it announces: a writer leaving finds
+  // its devices without a walk over every device (thousands of writers leave
+  // one by one when a large server goes).
+  std::map<std::string, std::set<std::string>> devices_of_writer_;
   std::map<std::string, std::size_t> per_participant_;  // devices announced, by participant GUID
   std::optional<Clock::time_point> reconcile_at_;
   LostServers lost_;

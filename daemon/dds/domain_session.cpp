@@ -239,10 +239,23 @@ void DomainSession::delete_reader() {
   dds_delete(reader);
 }
 
-std::set<DomainBook::Handle> DomainSession::matched_writers(dds_entity_t reader) const {
-  std::array<dds_instance_handle_t, 1024> handles{};
-  const dds_return_t n = reader > 0 ? dds_get_matched_publications(reader, handles.data(), handles.size()) : 0;
-  return {handles.begin(), handles.begin() + std::max<dds_return_t>(n, 0)};
+MatchedWriters DomainSession::matched_writers(dds_entity_t reader) const {
+  // dds_get_matched_publications returns how many writers are matched, not how
+  // many it stored (it stores at most the array's size: Cyclone 0.10.2's
+  // dds_matched.c counts on past the end). So the array grows to the count and
+  // is asked again; writers may match between the two calls, hence the loop.
+  // A fixed array of 1,024 here once built the set from past its end (SIGSEGV
+  // with 1,025 writers on a domain, issue 20).
+  std::vector<dds_instance_handle_t> handles(64);
+  for (;;) {
+    const dds_return_t n = reader > 0 ? dds_get_matched_publications(reader, handles.data(), handles.size()) : 0;
+    if (n < 0) return {};  // the reader is gone: nothing is matched to it
+    if (static_cast<std::size_t>(n) <= handles.size()) {
+      handles.resize(static_cast<std::size_t>(n));
+      return MatchedWriters(std::move(handles));
+    }
+    handles.resize(static_cast<std::size_t>(n) + static_cast<std::size_t>(n) / 4);  // room for a few more
+  }
 }
 
 DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
@@ -254,12 +267,21 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
     return milliseconds(250);
   }
 
-  const auto matched = matched_writers(reader_);
+  // Listed only when the book reconciles: with thousands of writers, listing
+  // and sorting them four times a second would be most of an idle daemon's CPU.
+  bool reconciling = false;
+  {
+    std::lock_guard lock(mutex_);
+    reconciling = book_.reconcile_due(now);
+  }
+  const MatchedWriters matched = reconciling ? matched_writers(reader_) : MatchedWriters{};
   DomainBook::Due due;
   std::set<std::string> present;                 // topic-roots in the table now
   std::map<std::string, nlohmann::json> eager;  // topic-root -> announcement, to describe
   {
     std::lock_guard lock(mutex_);
+    // reconcile_due(now) holds as above: only this (the main) thread moves the
+    // book's reconcile deadline.
     due = book_.tick(now, matched);
     if (due.refresh) ++refreshes_;
     present = book_.topic_roots();
@@ -506,6 +528,15 @@ void DomainSession::handle_matched(dds_entity_t reader, const dds_subscription_m
     return;
   }
   if (status.current_count_change >= 0) return;
+  // The status counts changes since the last call: one writer left and none
+  // came, so the one it names is all that changed. Listing every matched writer
+  // for each departure instead made a server of thousands of writers leaving
+  // cost thousands times thousands.
+  if (status.current_count_change == -1 && status.total_count_change == 0) {
+    std::lock_guard lock(mutex_);
+    book_.writer_gone(status.last_publication_handle, Clock::now());
+    return;
+  }
   const auto matched = matched_writers(reader);
   std::lock_guard lock(mutex_);
   book_.writer_left(status.last_publication_handle, matched, Clock::now());

@@ -103,8 +103,8 @@ class DomainSession {
   // Tells the book about `writer` if it does not know it yet (its GUID, its
   // participant's name and addresses, from Cyclone). Needs mutex_ held.
   void identify(dds_entity_t reader, dds_instance_handle_t writer);
-  // The writers the reader has now. Needs no lock.
-  std::set<DomainBook::Handle> matched_writers(dds_entity_t reader) const;
+  // Every writer the reader has now, however many. Needs no lock.
+  MatchedWriters matched_writers(dds_entity_t reader) const;
 
   void create_reader();
   void delete_reader();

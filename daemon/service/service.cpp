@@ -147,6 +147,9 @@ void Service::reload() {
   if (next.max_devices_per_participant != config_.max_devices_per_participant)
     restart_only.push_back("max-devices-per-participant");
   if (next.max_devices_per_domain != config_.max_devices_per_domain) restart_only.push_back("max-devices-per-domain");
+  if (next.max_writers_per_participant != config_.max_writers_per_participant)
+    restart_only.push_back("max-writers-per-participant");
+  if (next.max_writers_per_domain != config_.max_writers_per_domain) restart_only.push_back("max-writers-per-domain");
   if (next.describe_timeout_s != config_.describe_timeout_s) restart_only.push_back("describe-timeout");
   if (next.describe_eagerly_all != config_.describe_eagerly_all || next.describe_eagerly != config_.describe_eagerly)
     restart_only.push_back("describe-eagerly");

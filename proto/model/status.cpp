@@ -19,6 +19,8 @@ constexpr const char* rejected = "rejected";
 constexpr const char* rebuilds = "rebuilds";
 constexpr const char* refreshes = "refreshes";
 constexpr const char* lost_servers = "lost-servers";
+constexpr const char* writers = "device-info-writers";
+constexpr const char* writers_refused = "writers-refused";
 constexpr const char* complete = "complete";
 constexpr const char* status = "status";
 constexpr const char* version = "version";
@@ -33,6 +35,8 @@ using namespace read_json;
 nlohmann::json to_json(const DomainStatus& s) {
   nlohmann::json rejected = nlohmann::json::object();
   for (const auto& [reason, n] : s.rejected) rejected[reason] = n;
+  nlohmann::json refused = nlohmann::json::object();
+  for (const auto& [reason, n] : s.writers_refused) refused[reason] = n;
   return {{key::domain, s.domain},
           {key::state, to_string(s.state)},
           {key::participant_guid, s.participant_guid},
@@ -44,6 +48,8 @@ nlohmann::json to_json(const DomainStatus& s) {
           {key::rebuilds, s.rebuilds},
           {key::refreshes, s.refreshes},
           {key::lost_servers, s.lost_servers},
+          {key::writers, s.writers},
+          {key::writers_refused, std::move(refused)},
           {key::complete, s.complete}};
 }
 
@@ -70,6 +76,12 @@ DomainStatus domain_status_from_json(const nlohmann::json& doc) {
   s.rebuilds = count(doc, key::rebuilds, what);
   s.refreshes = count(doc, key::refreshes, what);
   s.lost_servers = count(doc, key::lost_servers, what);
+  // Since the writer caps (issue 20); a daemon from before them leaves them out.
+  if (doc.contains(key::writers)) s.writers = count(doc, key::writers, what);
+  if (const auto it = doc.find(key::writers_refused); it != doc.end()) {
+    if (!it->is_object()) throw MalformedDocument("a domain entry's \"writers-refused\" is not an object");
+    for (const auto& [reason, n] : it->items()) s.writers_refused[reason] = count_value(n, reason, what);
+  }
   s.complete = flag(doc, key::complete, what);
   return s;
 }

@@ -87,12 +87,23 @@ TEST(StatusModel, DomainStatusRoundTripsWithEveryKey) {
   s.rebuilds = 4;
   s.refreshes = 2;
   s.lost_servers = 1;
+  s.writers = 9;
+  s.writers_refused = {{"domain-writer-limit", 5}};
   s.complete = true;
   const auto doc = rsd::model::to_json(s);
-  EXPECT_EQ(doc.size(), 12u);  // the spec's DomainStatus, every required key
+  EXPECT_EQ(doc.size(), 14u);  // the spec's DomainStatus, every required key
   EXPECT_EQ(doc["state"], "rebuilding");
   EXPECT_EQ(doc["lost-servers"], 1);
+  EXPECT_EQ(doc["device-info-writers"], 9);
+  EXPECT_EQ(doc["writers-refused"]["domain-writer-limit"], 5);
   EXPECT_EQ(rsd::model::to_json(rsd::model::domain_status_from_json(doc)), doc);
+  // A daemon from before the writer caps leaves their keys out: read as none.
+  auto older = doc;
+  older.erase("device-info-writers");
+  older.erase("writers-refused");
+  const auto read = rsd::model::domain_status_from_json(older);
+  EXPECT_EQ(read.writers, 0u);
+  EXPECT_TRUE(read.writers_refused.empty());
 }
 
 TEST(StatusModel, EveryDomainStateHasItsName) {

@@ -11,6 +11,12 @@
 // a rogue writer: once matched, writes COUNT valid device-infos, each with a
 // random topic-root, at RATE messages per second, prints "flooded N SECONDS"
 // and exits (its writer goes with it).
+//
+//   rsd-raw-writer DOMAIN --writers PARTICIPANTS WRITERS
+// many writers: PARTICIPANTS participants of WRITERS device-info writers each,
+// every writer announcing one camera (topic-root realsense/many_P_W) as realdds
+// does, once per reader that matches it; prints "announced N" once every writer
+// has announced to some reader, then runs until stdin closes.
 #include "dds/flexible_topic.hpp"
 
 #include "flexible.h"
@@ -25,13 +31,105 @@
 #include <thread>
 #include <vector>
 
+namespace {
+
+dds_qos_t* device_info_qos() {
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(10));
+  dds_qset_durability(qos, DDS_DURABILITY_VOLATILE);
+  return qos;
+}
+
+void write_json(dds_entity_t writer, const std::string& text) {
+  realdds_topics_raw_flexible msg{};
+  msg.data_format = realdds_topics_raw_FLEXIBLE_DATA_JSON;
+  msg.data._length = msg.data._maximum = static_cast<std::uint32_t>(text.size());
+  msg.data._buffer = reinterpret_cast<std::uint8_t*>(const_cast<char*>(text.data()));
+  msg.data._release = false;
+  dds_write(writer, &msg);
+}
+
+// --writers: every writer writes its camera on each new match (total_count grew),
+// the way a realdds server's device writers do; the waitset wakes on matches.
+int many_writers(dds_domainid_t domain, int participants, int per_participant) {
+  struct Announcer {
+    dds_entity_t writer;
+    std::string text;
+    std::uint32_t matches_seen = 0;
+  };
+  std::vector<Announcer> announcers;
+  std::vector<dds_entity_t> made;
+  for (int p = 0; p < participants; ++p) {
+    dds_qos_t* pqos = dds_create_qos();
+    dds_qset_entity_name(pqos, ("rsd-many-writers-" + std::to_string(p)).c_str());
+    const dds_entity_t participant = dds_create_participant(domain, pqos, nullptr);
+    dds_delete_qos(pqos);
+    dds_qos_t* qos = device_info_qos();
+    const dds_entity_t topic = rsd::dds::create_topic_allowing_dash(
+        participant, &realdds_topics_raw_flexible_desc, "realsense/device-info", qos);
+    if (participant < 0 || topic < 0) {
+      std::cerr << "cannot create participant " << p << "\n";
+      return 1;
+    }
+    made.push_back(participant);
+    for (int w = 0; w < per_participant; ++w) {
+      const dds_entity_t writer = dds_create_writer(participant, topic, qos, nullptr);
+      if (writer < 0) {
+        std::cerr << "cannot create writer " << w << " of participant " << p << "\n";
+        return 1;
+      }
+      dds_set_status_mask(writer, DDS_PUBLICATION_MATCHED_STATUS);
+      const std::string serial = std::to_string(p) + "_" + std::to_string(w);
+      announcers.push_back({writer, R"({"name":"Intel RealSense D455","serial":")" + serial +
+                                        R"(","product-line":"D400","topic-root":"realsense/many_)" + serial + R"("})"});
+    }
+    dds_delete_qos(qos);
+  }
+  const dds_entity_t waitset = dds_create_waitset(made.front());
+  for (const auto& a : announcers) dds_waitset_attach(waitset, a.writer, a.writer);
+  // stdin closing ends the run: a thread waits for it and wakes the waitset.
+  const dds_entity_t done = dds_create_guardcondition(made.front());
+  dds_waitset_attach(waitset, done, done);
+  std::thread([done] {
+    std::string line;
+    while (std::getline(std::cin, line)) {}
+    dds_set_guardcondition(done, true);
+  }).detach();
+  bool told = false;
+  std::vector<dds_attach_t> woken(64);
+  for (;;) {
+    dds_waitset_wait(waitset, woken.data(), woken.size(), DDS_SECS(1));
+    bool quit = false;
+    dds_read_guardcondition(done, &quit);
+    if (quit) break;
+    std::size_t announced = 0;
+    for (auto& a : announcers) {
+      dds_publication_matched_status_t st{};
+      dds_get_publication_matched_status(a.writer, &st);  // also resets the status, so the waitset rests
+      if (st.total_count > a.matches_seen && st.current_count > 0) write_json(a.writer, a.text);
+      a.matches_seen = st.total_count;
+      announced += a.matches_seen > 0;
+    }
+    if (!told && announced == announcers.size()) {
+      std::cout << "announced " << announced << std::endl;
+      told = true;
+    }
+  }
+  for (const auto participant : made) dds_delete(participant);
+  return 0;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   const bool flood = argc == 5 && std::string(argv[2]) == "--flood";
-  if (argc != 2 && !flood) {
-    std::cerr << "usage: rsd-raw-writer DOMAIN [--flood COUNT RATE]\n";
+  const bool writers = argc == 5 && std::string(argv[2]) == "--writers";
+  if (argc != 2 && !flood && !writers) {
+    std::cerr << "usage: rsd-raw-writer DOMAIN [--flood COUNT RATE | --writers PARTICIPANTS WRITERS]\n";
     return 2;
   }
   const auto domain = static_cast<dds_domainid_t>(std::stoul(argv[1]));
+  if (writers) return many_writers(domain, std::stoi(argv[3]), std::stoi(argv[4]));
   dds_qos_t* pqos = dds_create_qos();
   dds_qset_entity_name(pqos, "rsd-raw-writer");
   const dds_entity_t participant = dds_create_participant(domain, pqos, nullptr);

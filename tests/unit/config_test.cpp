@@ -119,6 +119,23 @@ TEST(Config, DeviceCaps) {
   EXPECT_THROW(parse({"--max-devices-per-participant", "lots"}), ConfigError);
 }
 
+TEST(Config, WriterCaps) {
+  const Config defaults;
+  EXPECT_EQ(defaults.max_writers_per_participant, 256u);
+  EXPECT_EQ(defaults.max_writers_per_domain, 2048u);
+  const std::string path = ::testing::TempDir() + "/rsd-config-writer-caps.json";
+  std::ofstream(path) << R"({"max-writers-per-participant": 99, "max-writers-per-domain": 5000})";
+  auto cl = parse({"--config", path.c_str(), "--max-writers-per-participant", "8"});  // flags win over the file
+  EXPECT_EQ(cl.config.max_writers_per_participant, 8u);
+  EXPECT_EQ(cl.config.max_writers_per_domain, 5000u);
+  EXPECT_EQ(parse({"--max-writers-per-domain=64"}).config.max_writers_per_domain, 64u);
+  for (const char* bad : {R"({"max-writers-per-domain": 0})", R"({"max-writers-per-participant": "all"})"}) {
+    Config x;
+    EXPECT_THROW(rsd::apply_config_json(bad, x), ConfigError) << bad;
+  }
+  EXPECT_THROW(parse({"--max-writers-per-domain", "-1"}), ConfigError);
+}
+
 TEST(Config, DescribeTimeout) {
   EXPECT_EQ(Config{}.describe_timeout_s, 30);
   Config c;

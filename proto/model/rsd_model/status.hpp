@@ -50,6 +50,8 @@ struct DomainStatus {
   std::uint64_t rebuilds = 0;    // times the participant was torn down and made anew
   std::uint64_t refreshes = 0;   // of those, made anew by itself to find a lost server again
   std::size_t lost_servers = 0;  // servers lost without 'stopping', still looked for
+  std::size_t writers = 0;       // device-info writers matched and followed
+  std::map<std::string, std::uint64_t> writers_refused;  // over a writer cap: reason -> writers
   // The domain's first discovery is over: its reader has existed long enough for
   // every server already on the network to have announced its devices (or the
   // domain failed, so nothing more will come). Until then a device list is partial.
