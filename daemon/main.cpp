@@ -4,6 +4,7 @@
 #include "log/log.hpp"
 #include "service/domain_set.hpp"
 #include "service/listen_sockets.hpp"
+#include "service/network_watch.hpp"
 #include "service/service.hpp"
 #include "service/sources_status.hpp"
 #include "service/usb_watch.hpp"
@@ -18,6 +19,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -99,7 +101,14 @@ int main(int argc, char** argv) {
   session_options.describe_timeout = std::chrono::seconds(config.describe_timeout_s);
   session_options.describe_eagerly = config.describe_eagerly_all;
   session_options.describe_eagerly_in = {config.describe_eagerly.begin(), config.describe_eagerly.end()};
+  // An explicit choice of interfaces in the Cyclone configuration (the option, else
+  // CYCLONEDDS_URI) is the user's: the daemon then neither chooses nor follows.
+  const char* cyclone_uri = std::getenv("CYCLONEDDS_URI");
+  session_options.interfaces_from_cyclone_config = rsd::net::cyclone_config_names_interfaces(
+      !config.cyclonedds_config.empty() ? config.cyclonedds_config : cyclone_uri ? cyclone_uri : "");
   rsd::service::DomainSet domains(table, session_options);
+  rsd::service::NetworkWatch network(domains, {config.interfaces, config.exclude_interfaces},
+                                     !session_options.interfaces_from_cyclone_config);
   try {
     domains.start(config.domains);
   } catch (const std::exception& e) {
@@ -111,6 +120,7 @@ int main(int argc, char** argv) {
   rsd::service::UsbWatch usb(table);
   usb.apply(config.usb);
   rsd::service::Service service(table, domains, usb, config, std::vector<std::string>(argv, argv + argc));
+  service.set_network(&network);
 
   const rsd::service::SourcesStatus status(domains, usb, std::chrono::seconds(config.describe_timeout_s));
   rsd::api::ApiServer api(table, status, RSD_VERSION);
@@ -157,11 +167,13 @@ int main(int argc, char** argv) {
       malloc_trim(0);
       next_trim = now + kTrimEvery;
     }
-    const auto wait = std::chrono::ceil<std::chrono::milliseconds>(
-        std::min({domains.tick(now), service.tick(now), Clock::duration(next_trim - now)}));
-    pollfd pfd{signal_fd, POLLIN, 0};
+    const auto wait = std::chrono::ceil<std::chrono::milliseconds>(std::min(
+        {domains.tick(now), network.tick(now), service.tick(now), Clock::duration(next_trim - now)}));
+    pollfd pfds[2] = {{signal_fd, POLLIN, 0}, {network.fd(), POLLIN, 0}};  // fd -1: not polled
     const int timeout = static_cast<int>(std::max<std::int64_t>(wait.count(), 1));
-    if (poll(&pfd, 1, timeout) <= 0) continue;
+    if (poll(pfds, 2, timeout) <= 0) continue;
+    if (pfds[1].revents & POLLIN) network.readable(Clock::now());
+    if (!(pfds[0].revents & POLLIN)) continue;
     signalfd_siginfo si{};
     if (read(signal_fd, &si, sizeof si) != static_cast<ssize_t>(sizeof si)) continue;
     switch (si.ssi_signo) {

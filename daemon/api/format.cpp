@@ -275,6 +275,11 @@ std::string render_metrics(const MetricsInput& in) {
   for (const auto& d : in.domains)
     w.sample("rsd_device_info_writers", {{"domain", std::to_string(d.domain)}}, d.writers);
 
+  w.family("rsd_network_changes_total", "counter",
+           "Times a domain was joined anew because the host's network changed.");
+  for (const auto& d : in.domains)
+    w.sample("rsd_network_changes_total", {{"domain", std::to_string(d.domain)}}, d.network_changes);
+
   w.family("rsd_writers_refused_total", "counter", "device-info writers refused by a writer cap, by reason.");
   for (const auto& d : in.domains)
     for (const char* reason : {"participant-writer-limit", "domain-writer-limit"}) {  // 0 until it happens

@@ -55,6 +55,15 @@ std::string parse_allowed_host(const std::string& text, const std::string& where
   return text;
 }
 
+// A network interface name or shell pattern. Linux names are 1-15 characters
+// without '/' or whitespace; a pattern may be longer ("enp*s0*"), not unbounded.
+std::string parse_interface_pattern(const std::string& text, const std::string& where) {
+  const bool bad = text.empty() || text.size() > 64 || text.find_first_of(" \t\r\n/\"'<>&") != std::string::npos;
+  if (bad)
+    throw ConfigError(where + ": expected a network interface name or pattern (eth1, enp*), not '" + text + "'");
+  return text;
+}
+
 void parse_socket(const std::string& text, Config& config, const std::string& where) {
   if (text.empty()) throw ConfigError(where + ": socket path is empty (use 'off' to disable)");
   config.socket_path = text == "off" ? "" : text;
@@ -161,6 +170,14 @@ void apply_config_json(const std::string& text, Config& config) {
     } else if (key == "describe-timeout") {
       config.describe_timeout_s = parse_seconds(value.is_number_integer() ? std::to_string(value.get<long long>())
                                                                          : value.dump(), at);
+    } else if (key == "interfaces" || key == "exclude-interfaces") {
+      if (!value.is_array()) throw ConfigError(at + " must be a list of interface names or patterns");
+      auto& list = key == "interfaces" ? config.interfaces : config.exclude_interfaces;
+      list.clear();
+      for (const auto& i : value) {
+        if (!i.is_string()) throw ConfigError(at + " must hold strings, not " + i.dump());
+        list.push_back(parse_interface_pattern(i.get<std::string>(), at));
+      }
     } else if (key == "allowed-hosts") {
       if (!value.is_array()) throw ConfigError(at + " must be a list of host names");
       config.allowed_hosts.clear();
@@ -183,7 +200,7 @@ void apply_config_json(const std::string& text, Config& config) {
       throw ConfigError(where + ": unknown key \"" + key +
                         "\" (known: domains, socket, http, usb, participant-name, log-level, "
                         "cyclonedds-config, max-devices-per-participant, max-devices-per-domain, max-writers-per-participant, "
-                        "max-writers-per-domain, describe-timeout, describe-eagerly, "
+                        "max-writers-per-domain, interfaces, exclude-interfaces, describe-timeout, describe-eagerly, "
                         "allowed-hosts, max-clients)");
     }
   }
@@ -194,7 +211,7 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
   Config flags_only;  // collects what the flags set, to apply over the file
   bool set_domains = false, set_socket = false, set_http = false, set_usb = false, set_name = false,
        set_level = false, set_cyclone = false, set_per_participant = false, set_per_domain = false,
-       set_writers_participant = false, set_writers_domain = false,
+       set_writers_participant = false, set_writers_domain = false, set_interfaces = false, set_excluded = false,
        set_describe = false, set_eager = false, set_hosts = false, set_clients = false;
   std::string config_file;
   bool explicit_config = false;
@@ -267,6 +284,15 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
     } else if (arg == "--max-devices-per-domain") {
       flags_only.max_devices_per_domain = parse_limit(next(), arg);
       set_per_domain = true;
+    } else if (arg == "--interface") {
+      if (!set_interfaces) flags_only.interfaces.clear();
+      flags_only.interfaces.push_back(parse_interface_pattern(next(), arg));
+      set_interfaces = true;
+    } else if (arg == "--exclude-interface") {
+      if (!set_excluded) flags_only.exclude_interfaces.clear();
+      const std::string v = next();
+      if (v != "none") flags_only.exclude_interfaces.push_back(parse_interface_pattern(v, arg));
+      set_excluded = true;
     } else if (arg == "--max-writers-per-participant") {
       flags_only.max_writers_per_participant = parse_limit(next(), arg);
       set_writers_participant = true;
@@ -297,6 +323,8 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
   if (set_cyclone) config.cyclonedds_config = flags_only.cyclonedds_config;
   if (set_per_participant) config.max_devices_per_participant = flags_only.max_devices_per_participant;
   if (set_per_domain) config.max_devices_per_domain = flags_only.max_devices_per_domain;
+  if (set_interfaces) config.interfaces = flags_only.interfaces;
+  if (set_excluded) config.exclude_interfaces = flags_only.exclude_interfaces;
   if (set_writers_participant) config.max_writers_per_participant = flags_only.max_writers_per_participant;
   if (set_writers_domain) config.max_writers_per_domain = flags_only.max_writers_per_domain;
   if (set_describe) config.describe_timeout_s = flags_only.describe_timeout_s;
@@ -337,9 +365,19 @@ Options:
       --no-usb               do not watch local USB cameras
       --participant-name NAME
                              DDS participant name others see (default: rs-discoveryd)
+      --interface NAME|PATTERN
+                             join the DDS domains on this network interface (repeat; shell
+                             patterns such as enp*); default: every interface that is up, has
+                             carrier, multicast and an IPv4 address, followed as the host's
+                             network changes (interfaces and addresses coming and going)
+      --exclude-interface PATTERN
+                             never join these unless --interface names them (repeat; 'none'
+                             for no exclusion); default: docker* veth* virbr* br-* lxcbr*
+                             lxdbr* podman* cni* flannel* vnet*
       --cyclonedds-config XML|file://PATH
-                             Cyclone DDS configuration for every domain (network interface,
-                             multicast, unicast peers); default: CYCLONEDDS_URI or Cyclone's own
+                             Cyclone DDS configuration for every domain (multicast, unicast
+                             peers); default: CYCLONEDDS_URI or Cyclone's own. If it names
+                             network interfaces, those are used and not followed
       --log-level LEVEL      error, warning, notice, info (default) or debug
       --max-devices-per-participant N
                              devices one DDS participant may announce (default: 128);
@@ -362,7 +400,8 @@ Options:
 
 Config file keys: domains, socket, http, usb, participant-name, log-level,
 cyclonedds-config, max-devices-per-participant, max-devices-per-domain,
-max-writers-per-participant, max-writers-per-domain, describe-timeout, describe-eagerly (true, false or a list of domains), allowed-hosts
+max-writers-per-participant, max-writers-per-domain, interfaces and
+exclude-interfaces (lists), describe-timeout, describe-eagerly (true, false or a list of domains), allowed-hosts
 (a list), max-clients; otherwise the same meanings as the flags. The HTTP and socket
 settings (http, socket, allowed-hosts, max-clients) take effect at start, not on SIGHUP.
 

@@ -25,6 +25,12 @@ struct Config {
   std::string participant_name = "rs-discoveryd";
   std::string log_level = "info";
   std::string cyclonedds_config;  // XML fragment or file URI, passed to every domain
+  // The network interfaces the domains join: names or shell patterns ("eth1",
+  // "enp*"); empty: every usable one. The excluded ones are never joined unless
+  // `interfaces` names them (container and VM bridges by default).
+  std::vector<std::string> interfaces;
+  std::vector<std::string> exclude_interfaces = {"docker*", "veth*", "virbr*", "br-*", "lxcbr*",
+                                                 "lxdbr*", "podman*", "cni*", "flannel*", "vnet*"};
   // Caps against floods: a realdds server announces a handful of devices.
   std::size_t max_devices_per_participant = 128;
   std::size_t max_devices_per_domain = 1024;

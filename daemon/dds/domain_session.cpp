@@ -87,7 +87,10 @@ void DomainSession::start() {
   // comes after the daemon's own defaults, so it overrides them.
   std::string user_config = options_.cyclone_config;
   if (const char* uri = std::getenv("CYCLONEDDS_URI"); user_config.empty() && uri) user_config = uri;
-  const std::string config = std::string(kCycloneDefaults) + (user_config.empty() ? "" : "," + user_config);
+  std::string config = kCycloneDefaults;
+  if (!options_.interfaces_from_cyclone_config && !options_.interfaces.empty())
+    config += "," + net::cyclone_interfaces_xml(options_.interfaces);
+  if (!user_config.empty()) config += "," + user_config;
   domain_ = dds_create_domain(static_cast<dds_domainid_t>(d), config.c_str());
   if (domain_ < 0) {
     const std::string why = dds_error(("cannot create DDS domain " + std::to_string(d)).c_str(), domain_);
@@ -191,6 +194,16 @@ void DomainSession::rebuild() {
     throw;
   }
   rebuilding_ = false;
+}
+
+void DomainSession::follow_network(std::vector<net::NetInterface> chosen) {
+  {
+    std::lock_guard lock(mutex_);  // status() reads them on API threads
+    options_.interfaces = std::move(chosen);
+    ++network_changes_;
+    network_changed_at_ = SharedTable::now_iso8601();
+  }
+  rebuild();
 }
 
 void DomainSession::forget_devices() {
@@ -571,6 +584,10 @@ DomainStatus DomainSession::status() const {
   for (const auto& [reason, n] : fetcher_.rejected()) s.rejected[reason] += n;
   s.rebuilds = rebuilds_;
   s.refreshes = refreshes_;
+  if (!options_.interfaces_from_cyclone_config)
+    for (const auto& i : options_.interfaces) s.interfaces.push_back({i.name, i.ipv4});
+  s.network_changes = network_changes_;
+  s.network_changed_at = network_changed_at_;
   s.complete = complete_locked();
   return s;
 }

@@ -6,6 +6,7 @@
 #include "dds/domain_book.hpp"
 #include "dds/description_fetcher.hpp"
 #include "dds/domain_status.hpp"
+#include "net/interfaces.hpp"
 #include "table/shared_table.hpp"
 
 #include <dds/dds.h>
@@ -26,6 +27,12 @@ struct SessionOptions {
   // Cyclone DDS configuration (XML fragment or file://URI); empty: Cyclone's own
   // defaults and CYCLONEDDS_URI.
   std::string cyclone_config;
+  // The host's interfaces the domain is joined on (NetworkWatch chooses them and
+  // follows the host's changes). Empty: Cyclone DDS chooses (loopback when there
+  // is nothing else). Not used when the user's Cyclone configuration names its
+  // own interfaces (`interfaces_from_cyclone_config`): an explicit choice wins.
+  std::vector<net::NetInterface> interfaces;
+  bool interfaces_from_cyclone_config = false;
   // realdds servers re-announce every 1.5 s; a reader created before Cyclone
   // knows a server's writer loses that server's broadcast for good, so the
   // reader waits this long after the participant is made.
@@ -71,6 +78,9 @@ class DomainSession {
   void rebuild();
   // Removes this domain's devices from the table (leaving the domain for good).
   void forget_devices();
+  // The host's network changed: the participant is made anew on `chosen` (a
+  // rebuild, so devices of servers still reachable stay without an event).
+  void follow_network(std::vector<net::NetInterface> chosen);
 
   // Timers: reader creation, and what the book asks for (a new reader, a
   // refresh). The main
@@ -130,6 +140,8 @@ class DomainSession {
   DescriptionFetcher fetcher_;  // its own lock: never taken while holding mutex_
   std::optional<Clock::time_point> first_reader_at_;  // kept across rebuilds
   std::uint64_t rebuilds_ = 0, refreshes_ = 0;
+  std::uint64_t network_changes_ = 0;
+  std::string network_changed_at_;  // when it last followed a change ("" never)
 };
 
 // "0110a3b1.22c44e8f.7f000001.000001c1": prefix and entity id, as Cyclone's own

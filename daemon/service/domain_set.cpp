@@ -81,6 +81,17 @@ void DomainSet::rebuild() {
   }
 }
 
+void DomainSet::follow_network(const std::vector<net::NetInterface>& chosen) {
+  base_.interfaces = chosen;
+  for (auto& [d, s] : sessions_) {
+    try {
+      s->follow_network(chosen);
+    } catch (const std::exception& e) {  // the session says failed; the next change tries again
+      log::error(e.what());
+    }
+  }
+}
+
 void DomainSet::stop() {
   for (auto& [d, s] : sessions_) s->stop();
 }

@@ -42,6 +42,9 @@ class DomainSet {
   Change apply(const std::vector<int>& domains);
 
   void rebuild();  // every session's participant made anew (SIGUSR1)
+  // The host's network changed: every domain joined anew on `chosen` (and domains
+  // joined later too).
+  void follow_network(const std::vector<net::NetInterface>& chosen);
   void stop();     // leaves every domain; the table keeps what it has
 
   // The sessions' timers; returns how soon it wants to be called again.

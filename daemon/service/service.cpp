@@ -133,6 +133,11 @@ void Service::reload() {
   if (log::parse_level(next.log_level, level)) log::set_level(level);
   config_.log_level = next.log_level;
 
+  if (network_ && (next.interfaces != config_.interfaces || next.exclude_interfaces != config_.exclude_interfaces)) {
+    network_->apply({next.interfaces, next.exclude_interfaces}, std::chrono::steady_clock::now());
+    config_.interfaces = next.interfaces;
+    config_.exclude_interfaces = next.exclude_interfaces;
+  }
   const auto change = domains_.apply(next.domains);
   config_.domains = domains_.ids();
   config_.config_file = next.config_file;

@@ -6,6 +6,7 @@
 
 #include "config/config.hpp"
 #include "service/domain_set.hpp"
+#include "service/network_watch.hpp"
 #include "service/notifier.hpp"
 #include "service/usb_watch.hpp"
 #include "table/shared_table.hpp"
@@ -46,6 +47,8 @@ class Service {
   bool ready() const { return ready_sent_; }
   bool healthy(std::string* why = nullptr) const;
   const Config& config() const { return config_; }
+  // The network follower a reload gives the interface rules to (none: not followed).
+  void set_network(NetworkWatch* network) { network_ = network; }
 
  private:
   std::string current_status(bool ready);
@@ -53,6 +56,7 @@ class Service {
   const SharedTable& table_;
   DomainSet& domains_;
   UsbWatch& usb_;
+  NetworkWatch* network_ = nullptr;
   Config config_;
   std::vector<std::string> args_;
   Notifier notifier_;

@@ -21,6 +21,11 @@ constexpr const char* refreshes = "refreshes";
 constexpr const char* lost_servers = "lost-servers";
 constexpr const char* writers = "device-info-writers";
 constexpr const char* writers_refused = "writers-refused";
+constexpr const char* interfaces = "interfaces";
+constexpr const char* name = "name";
+constexpr const char* addresses = "addresses";
+constexpr const char* network_changes = "network-changes";
+constexpr const char* network_changed_at = "network-changed-at";
 constexpr const char* complete = "complete";
 constexpr const char* status = "status";
 constexpr const char* version = "version";
@@ -37,6 +42,8 @@ nlohmann::json to_json(const DomainStatus& s) {
   for (const auto& [reason, n] : s.rejected) rejected[reason] = n;
   nlohmann::json refused = nlohmann::json::object();
   for (const auto& [reason, n] : s.writers_refused) refused[reason] = n;
+  nlohmann::json interfaces = nlohmann::json::array();
+  for (const auto& i : s.interfaces) interfaces.push_back({{key::name, i.name}, {key::addresses, i.addresses}});
   return {{key::domain, s.domain},
           {key::state, to_string(s.state)},
           {key::participant_guid, s.participant_guid},
@@ -50,6 +57,9 @@ nlohmann::json to_json(const DomainStatus& s) {
           {key::lost_servers, s.lost_servers},
           {key::writers, s.writers},
           {key::writers_refused, std::move(refused)},
+          {key::interfaces, std::move(interfaces)},
+          {key::network_changes, s.network_changes},
+          {key::network_changed_at, s.network_changed_at},
           {key::complete, s.complete}};
 }
 
@@ -82,6 +92,24 @@ DomainStatus domain_status_from_json(const nlohmann::json& doc) {
     if (!it->is_object()) throw MalformedDocument("a domain entry's \"writers-refused\" is not an object");
     for (const auto& [reason, n] : it->items()) s.writers_refused[reason] = count_value(n, reason, what);
   }
+  // Since the daemon follows the host's network (issue 21); absent before.
+  if (const auto it = doc.find(key::interfaces); it != doc.end()) {
+    if (!it->is_array()) throw MalformedDocument("a domain entry's \"interfaces\" is not a list");
+    for (const auto& i : *it) {
+      want_object(i, "an interface");
+      InterfaceStatus entry;
+      entry.name = text(i, key::name, "an interface");
+      const auto& addresses = member(i, key::addresses, "an interface");
+      if (!addresses.is_array()) throw MalformedDocument("an interface's \"addresses\" is not a list");
+      for (const auto& a : addresses) {
+        if (!a.is_string()) throw MalformedDocument("an interface address is not a string");
+        entry.addresses.push_back(a.get<std::string>());
+      }
+      s.interfaces.push_back(std::move(entry));
+    }
+  }
+  if (doc.contains(key::network_changes)) s.network_changes = count(doc, key::network_changes, what);
+  if (doc.contains(key::network_changed_at)) s.network_changed_at = text(doc, key::network_changed_at, what);
   s.complete = flag(doc, key::complete, what);
   return s;
 }

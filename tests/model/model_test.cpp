@@ -89,9 +89,13 @@ TEST(StatusModel, DomainStatusRoundTripsWithEveryKey) {
   s.lost_servers = 1;
   s.writers = 9;
   s.writers_refused = {{"domain-writer-limit", 5}};
+  s.interfaces = {{"eth0", {"192.0.2.2"}}, {"eth1", {"10.1.0.1", "10.1.0.2"}}};
+  s.network_changes = 2;
+  s.network_changed_at = "2026-12-02T08:50:00.000Z";
   s.complete = true;
   const auto doc = rsd::model::to_json(s);
-  EXPECT_EQ(doc.size(), 14u);  // the spec's DomainStatus, every required key
+  EXPECT_EQ(doc.size(), 17u);  // the spec's DomainStatus, every required key
+  EXPECT_EQ(doc["interfaces"][1]["addresses"][1], "10.1.0.2");
   EXPECT_EQ(doc["state"], "rebuilding");
   EXPECT_EQ(doc["lost-servers"], 1);
   EXPECT_EQ(doc["device-info-writers"], 9);
@@ -101,9 +105,14 @@ TEST(StatusModel, DomainStatusRoundTripsWithEveryKey) {
   auto older = doc;
   older.erase("device-info-writers");
   older.erase("writers-refused");
+  for (const char* key : {"interfaces", "network-changes", "network-changed-at"}) older.erase(key);
   const auto read = rsd::model::domain_status_from_json(older);
   EXPECT_EQ(read.writers, 0u);
   EXPECT_TRUE(read.writers_refused.empty());
+  EXPECT_TRUE(read.interfaces.empty());
+  auto bad = doc;
+  bad["interfaces"][0]["addresses"] = "192.0.2.2";
+  EXPECT_THROW(rsd::model::domain_status_from_json(bad), rsd::model::MalformedDocument);
 }
 
 TEST(StatusModel, EveryDomainStateHasItsName) {

@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace rsd::model {
 
@@ -38,6 +39,13 @@ constexpr std::optional<DomainState> parse_domain_state(std::string_view name) {
                            DomainState::failed, DomainState::stopped});
 }
 
+// A network interface a domain is joined on, with its IPv4 addresses.
+struct InterfaceStatus {
+  std::string name;
+  std::vector<std::string> addresses;
+  bool operator==(const InterfaceStatus&) const = default;
+};
+
 struct DomainStatus {
   int domain = 0;
   DomainState state = DomainState::stopped;
@@ -52,6 +60,11 @@ struct DomainStatus {
   std::size_t lost_servers = 0;  // servers lost without 'stopping', still looked for
   std::size_t writers = 0;       // device-info writers matched and followed
   std::map<std::string, std::uint64_t> writers_refused;  // over a writer cap: reason -> writers
+  // The interfaces the daemon joined the domain on; empty when none was usable
+  // (Cyclone DDS then uses loopback) or the user's Cyclone configuration names them.
+  std::vector<InterfaceStatus> interfaces;
+  std::uint64_t network_changes = 0;  // times it was joined anew for a network change
+  std::string network_changed_at;     // the last of them (RFC 3339), "" never
   // The domain's first discovery is over: its reader has existed long enough for
   // every server already on the network to have announced its devices (or the
   // domain failed, so nothing more will come). Until then a device list is partial.

@@ -1,0 +1,92 @@
+#include "net/interfaces.hpp"
+
+#include <fnmatch.h>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+namespace rsd::net {
+namespace {
+
+bool matches_any(const std::string& name, const std::vector<std::string>& patterns) {
+  return std::any_of(patterns.begin(), patterns.end(),
+                     [&](const std::string& p) { return fnmatch(p.c_str(), name.c_str(), 0) == 0; });
+}
+
+// Interface names come from the kernel (at most 15 characters, no '/' or
+// whitespace), but they go into XML: anything that is not plain is escaped.
+std::string xml_attribute(const std::string& text) {
+  std::string out;
+  for (const char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&apos;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> default_excluded_interfaces() {
+  return {"docker*", "veth*", "virbr*", "br-*", "lxcbr*", "lxdbr*", "podman*", "cni*", "flannel*", "vnet*"};
+}
+
+std::vector<NetInterface> select_interfaces(const std::vector<NetInterface>& all, const InterfaceRules& rules) {
+  std::vector<NetInterface> out;
+  for (const auto& i : all) {
+    if (!i.up || !i.running || i.ipv4.empty()) continue;
+    if (rules.include.empty()) {
+      if (i.loopback || !i.multicast || matches_any(i.name, rules.exclude)) continue;
+    } else if (!matches_any(i.name, rules.include)) {
+      continue;
+    }
+    out.push_back(i);
+  }
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.name < b.name; });
+  for (auto& i : out) std::sort(i.ipv4.begin(), i.ipv4.end());
+  return out;
+}
+
+std::string cyclone_interfaces_xml(const std::vector<NetInterface>& chosen) {
+  if (chosen.empty()) return "";
+  std::string xml = "<General><Interfaces>";
+  for (const auto& i : chosen) xml += "<NetworkInterface name=\"" + xml_attribute(i.name) + "\"/>";
+  return xml + "</Interfaces></General>";
+}
+
+bool cyclone_config_names_interfaces(const std::string& config) {
+  std::string text = config;
+  // CYCLONEDDS_URI and the option may hold several fragments separated by commas,
+  // each XML or a file URI.
+  std::size_t pos = 0;
+  while ((pos = config.find("file://", pos)) != std::string::npos) {
+    std::size_t end = config.find(',', pos);
+    const std::string path = config.substr(pos + 7, end == std::string::npos ? std::string::npos : end - pos - 7);
+    std::ifstream file(path);
+    std::stringstream body;
+    body << file.rdbuf();
+    text += body.str();
+    pos = end == std::string::npos ? config.size() : end;
+  }
+  return text.find("NetworkInterface") != std::string::npos;  // also the older NetworkInterfaceAddress
+}
+
+std::string describe(const std::vector<NetInterface>& chosen) {
+  if (chosen.empty()) return "none";
+  std::string out;
+  for (const auto& i : chosen) {
+    if (!out.empty()) out += ", ";
+    out += i.name + " (";
+    for (std::size_t n = 0; n < i.ipv4.size(); ++n) out += (n ? " " : "") + i.ipv4[n];
+    out += ")";
+  }
+  return out;
+}
+
+}  // namespace rsd::net
