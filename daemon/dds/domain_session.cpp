@@ -22,7 +22,17 @@ namespace {
 // rings fill in the first minutes and keep RSS flat after. Messages are still
 // received in Cyclone's default 128 KiB chunks (Fast DDS sends datagrams of up to
 // 64 KiB). The user's configuration can set other sizes.
-constexpr const char* kCycloneDefaults = "<Sizing><ReceiveBufferSize>256KiB</ReceiveBufferSize></Sizing>";
+//
+// One receive thread for all sockets (MultipleReceiveThreads false): Cyclone stops
+// a thread of its own per socket by sending that socket a packet through the
+// network, and once the host's address is gone (a renumbering, a lease lost, an
+// adapter unplugged) that send fails and deleting the domain waits for ever
+// (measured: 0.10.2, the participant made anew after the address was removed
+// never came; the main thread sat in dds_delete joining "recvMC"). The single
+// thread waits on a waitset that a pipe wakes. Discovery traffic is light.
+constexpr const char* kCycloneDefaults =
+    "<Sizing><ReceiveBufferSize>256KiB</ReceiveBufferSize></Sizing>"
+    "<Internal><MultipleReceiveThreads>false</MultipleReceiveThreads></Internal>";
 
 std::string dds_error(const char* what, dds_return_t rc) {
   return std::string(what) + ": " + dds_strretcode(rc);

@@ -28,8 +28,7 @@ struct SessionOptions {
   // defaults and CYCLONEDDS_URI.
   std::string cyclone_config;
   // The host's interfaces the domain is joined on (NetworkWatch chooses them and
-  // follows the host's changes). Empty: Cyclone DDS chooses (loopback when there
-  // is nothing else). Not used when the user's Cyclone configuration names its
+  // follows the host's changes). Empty: Cyclone DDS chooses. Not used when the user's Cyclone configuration names its
   // own interfaces (`interfaces_from_cyclone_config`): an explicit choice wins.
   std::vector<net::NetInterface> interfaces;
   bool interfaces_from_cyclone_config = false;

@@ -48,6 +48,12 @@ std::vector<NetInterface> select_interfaces(const std::vector<NetInterface>& all
     }
     out.push_back(i);
   }
+  // Nothing usable (no network yet, or the interfaces named are not there):
+  // loopback, so local peers still meet, and never what Cyclone DDS would pick by
+  // itself, which could be an interface the rules leave out.
+  if (out.empty())
+    for (const auto& i : all)
+      if (i.loopback && i.up && !i.ipv4.empty()) out.push_back(i);
   std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.name < b.name; });
   for (auto& i : out) std::sort(i.ipv4.begin(), i.ipv4.end());
   return out;

@@ -31,8 +31,8 @@ std::vector<std::string> default_excluded_interfaces();
 
 // The interfaces to join, sorted by name, each with its addresses. An interface is
 // usable when it is up, has carrier, is multicast-capable and has an IPv4 address;
-// loopback only when `include` names it. Empty: nothing usable (the caller then
-// lets Cyclone DDS choose, which falls back to loopback).
+// loopback only when `include` names it, or when nothing else is usable (local
+// peers still meet). Empty only without loopback: Cyclone DDS then chooses.
 std::vector<NetInterface> select_interfaces(const std::vector<NetInterface>& all, const InterfaceRules& rules);
 
 // A Cyclone DDS configuration fragment joining exactly these interfaces; "" for none.

@@ -19,8 +19,7 @@ NetworkWatch::NetworkWatch(DomainSet& domains, net::InterfaceRules rules, bool f
     log::warning(std::string(e.what()) + "; the domains stay on the interfaces they start with");
   }
   const auto& chosen = follower_.joined();
-  log::info("network interfaces: " + net::describe(chosen) +
-            (chosen.empty() ? " usable yet (Cyclone DDS uses loopback until one is)" : ""));
+  log::info("network interfaces: " + net::describe(chosen));
   domains_.follow_network(chosen);  // made before any domain is joined: they start on these
 }
 

@@ -60,8 +60,8 @@ struct DomainStatus {
   std::size_t lost_servers = 0;  // servers lost without 'stopping', still looked for
   std::size_t writers = 0;       // device-info writers matched and followed
   std::map<std::string, std::uint64_t> writers_refused;  // over a writer cap: reason -> writers
-  // The interfaces the daemon joined the domain on; empty when none was usable
-  // (Cyclone DDS then uses loopback) or the user's Cyclone configuration names them.
+  // The interfaces the daemon joined the domain on (loopback when nothing else is
+  // usable); empty when the user's Cyclone configuration names them.
   std::vector<InterfaceStatus> interfaces;
   std::uint64_t network_changes = 0;  // times it was joined anew for a network change
   std::string network_changed_at;     // the last of them (RFC 3339), "" never
