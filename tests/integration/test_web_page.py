@@ -1,7 +1,11 @@
 """The daemon's page (GET /) in a real headless Chromium (Debian's, driven by
 selenium): a realdds camera appears on it within a second of the daemon listing it
 and goes on 'stopping'; its details and description open; a camera in recovery is
-highlighted; the network view lists the realdds server. The spec is served at
+highlighted, and keeps its colour under the pointer; the selected row stands out and
+its details scroll into view (a phone too), a #id link opens a camera, times show
+UTC, how long ago and local time; option values and ranges read as `rs-discover
+describe` prints them; the table is marked stale while the daemon is unreachable;
+the network view lists the realdds server. The spec is served at
 /openapi.yaml. A screenshot of the page is kept as a test artifact
 (RSD_BUILD_DIR/web-page.png), phone-sized and dark too."""
 import json
