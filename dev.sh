@@ -1,26 +1,31 @@
 #!/usr/bin/env bash
 # rs-discoveryd developer entry point: the two commands the README gives.
 #
-#   ./dev.sh run    install what is missing, build, run the daemon in the foreground
-#                   on its embedded defaults (domain 0, HTTP on 127.0.0.1:8035,
-#                   Unix socket under the runtime directory); extra arguments go
-#                   to the daemon, e.g. ./dev.sh run --domain 5
-#   ./dev.sh test   install what is missing, build (plain, and with AddressSanitizer
-#                   and UBSan), and run the whole test suite with ctest on both; also
-#                   the fuzz targets under libFuzzer (clang) and the daemon's threads
-#                   under ThreadSanitizer
+#   ./dev.sh run    install what building and running need, build the daemon and
+#                   rs-discover, run the daemon in the foreground on its embedded
+#                   defaults (domain 0, HTTP on 127.0.0.1:8035, Unix socket under the
+#                   runtime directory); extra arguments go to the daemon, e.g.
+#                   ./dev.sh run --domain 5
+#   ./dev.sh test   install everything the tests need too, build (plain, and with
+#                   AddressSanitizer and UBSan), and run the whole test suite with
+#                   ctest on both; also the fuzz targets under libFuzzer (clang) and
+#                   the daemon's threads under ThreadSanitizer
+#   ./dev.sh packages run|test   print the Debian packages that command installs
 #
 # Needs Debian bookworm (or newer) and root, or sudo, for apt-get.
 set -euo pipefail
 cd "$(dirname "$0")"
 ROOT=$PWD
 
-DEB_PACKAGES=(
-  # build
-  build-essential cmake ninja-build pkg-config git
-  cyclonedds-dev cyclonedds-tools libusb-1.0-0-dev nlohmann-json3-dev libcpp-httplib-dev rapidjson-dev
-  libsystemd-dev googletest libgtest-dev libgmock-dev
-  # tests: a Python for the harnesses and the real realdds peer (pyrealsense2 needs libusb)
+# What building and running need: `./dev.sh run` installs only these.
+RUN_PACKAGES=(
+  build-essential cmake ninja-build pkg-config
+  cyclonedds-dev cyclonedds-tools libusb-1.0-0-dev nlohmann-json3-dev libcpp-httplib-dev rapidjson-dev libsystemd-dev
+)
+# What the test suite needs on top: `./dev.sh test` installs these too.
+TEST_PACKAGES=(
+  git googletest libgtest-dev libgmock-dev
+  # a Python for the harnesses and the real realdds peer (pyrealsense2 needs libusb)
   python3 python3-venv python3-pip python3-gi curl libusb-1.0-0 iproute2 groff-base util-linux
   # the network-cut and doctor tests: firewall rules in network namespaces
   nftables
@@ -42,15 +47,18 @@ DEB_PACKAGES=(
   chromium chromium-driver
   # rs-discover's shell completions, tested in the shells themselves
   bash-completion zsh
+  # the man pages, linted (groff-base above renders them)
+  mandoc
 )
+DEB_PACKAGES=("${RUN_PACKAGES[@]}" "${TEST_PACKAGES[@]}")
 
 say() { printf '\n==> %s\n' "$*"; }
 
 as_root() { if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi; }
 
-install_packages() {
+install_packages() {  # install_packages PACKAGE...: those of them not installed yet
   local missing=()
-  for p in "${DEB_PACKAGES[@]}"; do
+  for p in "$@"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   if [ ${#missing[@]} -gt 0 ]; then
@@ -96,19 +104,31 @@ build_targets() {  # build_targets DIR "TARGET..." [cmake args...]: only these t
 }
 
 case "${1:-}" in
+  packages)
+    # The Debian packages each command installs (what `run` needs is a part of `test`'s).
+    case "${2:-}" in
+      run) printf '%s\n' "${RUN_PACKAGES[@]}" ;;
+      test) printf '%s\n' "${DEB_PACKAGES[@]}" ;;
+      *) echo "usage: ./dev.sh packages run|test" >&2; exit 2 ;;
+    esac
+    ;;
   run)
     shift
-    install_packages
-    say "building the daemon in build"
-    configure build
-    cmake --build build -j"$(nproc)" --target rs-discoveryd  # what runs, not the tests
+    install_packages "${RUN_PACKAGES[@]}"
+    say "building rs-discoveryd and rs-discover in build"
+    # The test suite needs GoogleTest, which only `./dev.sh test` installs: a tree
+    # that has it keeps its tests configured, a first run builds without them.
+    tests=OFF
+    if dpkg-query -W -f='${Status}' libgtest-dev 2>/dev/null | grep -q "install ok installed"; then tests=ON; fi
+    configure build -DRSD_BUILD_TESTS=$tests
+    cmake --build build -j"$(nproc)" --target rs-discoveryd rs-discover  # what runs, not the tests
     say "starting rs-discoveryd (Ctrl-C stops it)"
     exec build/daemon/rs-discoveryd "$@"
     ;;
   test)
-    install_packages
+    install_packages "${DEB_PACKAGES[@]}"
     python_env
-    build build
+    build build -DRSD_BUILD_TESTS=ON
     # -O1: what ASan is meant for, and the second tree compiles in half the time.
     build build-asan -DRSD_SANITIZE=ON -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_FLAGS_DEBUG="-O1 -g1" \
       -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1"
@@ -141,7 +161,7 @@ case "${1:-}" in
     exit $status
     ;;
   *)
-    sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'
     exit 2
     ;;
 esac

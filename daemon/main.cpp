@@ -1,6 +1,7 @@
 // rs-discoveryd: flags and config -> wiring -> signal and timer loop. Nothing else.
 #include "api/api_server.hpp"
 #include "config/config.hpp"
+#include "config/config_check.hpp"
 #include "log/log.hpp"
 #include "service/domain_set.hpp"
 #include "service/listen_sockets.hpp"
@@ -22,6 +23,7 @@
 #include <cstdlib>
 #include <cstdio>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace {
@@ -65,11 +67,32 @@ int main(int argc, char** argv) {
   // its start after a flood with clients asking; measured by bench/flood.py).
   mallopt(M_ARENA_MAX, 2);
   rsd::CommandLine cl;
+  // --check-config: an invalid configuration is its answer (exit 1, at its line and
+  // column), not a usage error.
+  const bool checking = std::any_of(argv + 1, argv + argc, [](const char* a) {
+    const std::string_view arg(a);
+    return arg == "--check-config" || arg.starts_with("--check-config=");
+  });
   try {
     cl = rsd::parse_command_line(argc, argv);
   } catch (const rsd::ConfigError& e) {
+    if (checking) {
+      std::fprintf(stderr, "rs-discoveryd: %s\n", rsd::locate_config_error(e.what()).c_str());
+      return 1;
+    }
     std::fprintf(stderr, "rs-discoveryd: %s\n", e.what());
     return 2;
+  }
+  if (cl.action == rsd::CommandAction::check_config) {
+    const rsd::Config& c = cl.config;
+    std::string domains;
+    for (int d : c.domains) domains += (domains.empty() ? "" : ",") + std::to_string(d);
+    std::printf("rs-discoveryd: %s is valid: domains %s, socket %s, http %s, usb %s\n",
+                c.config_file.empty() ? "the configuration (no file, the defaults)" : c.config_file.c_str(),
+                domains.c_str(), c.socket_path.empty() ? "off" : c.socket_path.c_str(),
+                c.http_host.empty() ? "off" : (c.http_host + ":" + std::to_string(c.http_port)).c_str(),
+                c.usb ? "on" : "off");
+    return 0;
   }
   if (cl.action == rsd::CommandAction::help) {
     std::fputs(rsd::usage_text(), stdout);

@@ -17,6 +17,9 @@ void show(const rsdiscovery::Device& d);
 
 int run(const ParsedArgs& args) {
   if (args.positional.empty()) throw UsageError("give one or more device IDs");
+  if (args.has("json") && args.has("format")) throw UsageError("--json and --format exclude each other");
+  std::optional<Template> format;  // a bad template: exit 2 before asking the daemon
+  if (args.has("format")) format.emplace(args.get("format"), device_fields());
   auto client = make_client(args);
   // The daemon looks each key up (id, serial or topic-root), waiting for its complete
   // table unless told not to; a key of several devices is an Error listing their ids.
@@ -26,7 +29,10 @@ int run(const ParsedArgs& args) {
   for (const auto& key : args.positional) {
     auto device = client.find_device(key);
     if (!device) {
-      std::fprintf(stderr, "rs-discover: no device '%s' (ids are listed by 'rs-discover list -q')\n", key.c_str());
+      std::fprintf(stderr,
+                   "rs-discover: no device '%s' (ids are listed by 'rs-discover list -q'; 'rs-discover doctor' "
+                   "says why a camera may be missing)\n",
+                   key.c_str());
       status = kNotFound;
       continue;
     }
@@ -38,6 +44,10 @@ int run(const ParsedArgs& args) {
     for (const auto& d : found) out.push_back(nlohmann::json::parse(d.json));
     if (args.positional.size() == 1 && found.size() == 1) out = out[0];
     if (!found.empty() || args.positional.size() > 1) std::printf("%s\n", out.dump(output().color ? 2 : -1).c_str());
+    return status;
+  }
+  if (format) {
+    print_formatted(*format, found);
     return status;
   }
   for (std::size_t i = 0; i < found.size(); ++i) {
@@ -85,15 +95,16 @@ void show(const rsdiscovery::Device& d) {
 const Command kGetCommand = {
     "get",
     "show one camera",
-    "get [--json] [--no-wait-complete | --complete-timeout S] ID...",
+    "get [--json | --format TEMPLATE] [--no-wait-complete | --complete-timeout S] ID...",
     "Show cameras: every field the daemon has for each. ID is the id that 'rs-discover list -q'\n"
     "prints; a serial number or a topic-root that names one camera only works too. With\n"
     "several IDs, --json prints an array; an ID not found is named on stderr (exit status 1)\n"
-    "and the others are still shown.\n"
+    "and the others are still shown. --format prints a line per camera, as 'list --format' does.\n"
     "A camera not (yet) in the table is waited for while the daemon's first discovery runs\n"
     "(up to 5 s after it starts, --complete-timeout), unless --no-wait-complete is given.",
     {
         {"json", 'j', nullptr, "print the device's JSON document (an array of them for several IDs)"},
+        kFormatOption,
         kNoWaitCompleteOption,
         kCompleteTimeoutOption,
     },

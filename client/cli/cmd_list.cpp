@@ -9,7 +9,8 @@ namespace {
 int run(const ParsedArgs& args) {
   if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
   auto filter = filter_from(args);
-  if (args.has("format")) format_device(args.get("format"), rsdiscovery::Device{});  // a bad template: exit 2 now
+  std::optional<Template> format;  // a bad template: exit 2 before asking the daemon
+  if (args.has("format")) format.emplace(args.get("format"), device_fields());
   int wait = args.get_int("wait", 0, 0, 100000);
   double timeout = args.get_seconds("timeout", 10);
   if (args.has("timeout") && !args.has("wait")) throw UsageError("--timeout goes with --wait");
@@ -72,8 +73,8 @@ int run(const ParsedArgs& args) {
     for (const auto& d : devices) std::printf("%s\n", d.id.c_str());
     return kOk;
   }
-  if (args.has("format")) {
-    for (const auto& d : devices) std::printf("%s\n", format_device(args.get("format"), d).c_str());
+  if (format) {
+    print_formatted(*format, devices);
     return kOk;
   }
   bool wide = args.has("wide");
@@ -112,13 +113,14 @@ const Command kListCommand = {
     "taken before it is complete comes with a warning on stderr.\n"
     "--format prints one line per camera from a template of its fields, for example\n"
     "  rs-discover list --format '{serial}\\t{name}\\t{fw-version}'\n"
-    "with any key of the camera's JSON document, or {state}, {location}, {address},\n"
-    "{sources}, {age} as the table shows them.",
+    "with any key of the camera's JSON document, a nested one with dots ({server.addresses},\n"
+    "{usb.port-path}; lists are joined by commas), or {state}, {location}, {address},\n"
+    "{sources}, {age} as the table shows them. A field no camera has is an error (exit 2).",
     with_device_filters({
         {"json", 'j', nullptr, "print JSON: {\"complete\": true, \"devices\": [...], \"generation\": N}, as the API gives it"},
         {"quiet", 'q', nullptr, "print only the device ids, one a line"},
         {"wide", 'w', nullptr, "add the PRODUCT-ID, FW and ID columns"},
-        {"format", 'f', "TEMPLATE", "print each camera as TEMPLATE says ({name}, {serial}, ...; see above)"},
+        kFormatOption,
         kNoHeadersOption,
         {"wait", 0, "N", "wait until at least N matching devices are present"},
         {"timeout", 't', "S", "give up waiting after S seconds (default 10; exit status 1)"},

@@ -6,6 +6,9 @@ namespace {
 
 int run(const ParsedArgs& args) {
   if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
+  if (args.has("json") && args.has("format")) throw UsageError("--json and --format exclude each other");
+  std::optional<Template> format;  // a bad template: exit 2 before asking the daemon
+  if (args.has("format")) format.emplace(args.get("format"), participant_fields());
   std::optional<int> domain;
   if (args.has("domain")) domain = args.get_int("domain", 0, 0, 232);
   auto client = make_client(args);
@@ -17,6 +20,15 @@ int run(const ParsedArgs& args) {
     std::string out = "{\"participants\":[";
     for (std::size_t i = 0; i < shown.size(); ++i) out += (i ? "," : "") + shown[i].json;
     std::fputs((out + "]}\n").c_str(), stdout);
+    return kOk;
+  }
+  if (format) {
+    std::vector<nlohmann::json> docs;
+    for (const auto& p : shown) docs.push_back(nlohmann::json::parse(p.json, nullptr, false));
+    format->check(docs);
+    std::string out;
+    for (const auto& doc : docs) out += format->render(doc) + "\n";
+    std::fputs(out.c_str(), stdout);
     return kOk;
   }
   Table table({"DOMAIN", "NAME", "VENDOR", "ADDRESSES", "STATE", "DEVICES", "LEASE", "SEEN", "GUID"});
@@ -47,18 +59,22 @@ int run(const ParsedArgs& args) {
 const Command kParticipantsCommand = {
     "participants",
     "show who is on the DDS network (cameras, programs, tools)",
-    "participants [-d N] [-a] [--json | --no-headers]",
+    "participants [-d N] [-a] [--json | --format TEMPLATE | --no-headers]",
     "Show every DDS participant the daemon hears on its domains: realdds cameras and\n"
     "servers (Fast DDS), librealsense and ROS programs, other DDS tools. For each: its\n"
     "name (and process and host, when it says), DDS vendor, addresses, how many cameras\n"
     "it announces, its lease and how long it has been there. A server whose cameras\n"
     "matched but never arrived is marked 'never announced': the network path (a\n"
     "firewall, multicast) or the server is at fault. The daemon's own participant is\n"
-    "not listed. Without --all, only those alive now.",
+    "not listed. Without --all, only those alive now.\n"
+    "--format prints one line per participant from a template of its fields, for example\n"
+    "  rs-discover participants --format '{domain} {name} {addresses} {vendor}'\n"
+    "(lists are joined by commas; a field participants do not have is an error, exit 2).",
     {
         {"domain", 'd', "N", "only participants on DDS domain N"},
         {"all", 'a', nullptr, "also those gone (the latest 256 per domain)"},
         {"json", 'j', nullptr, "print JSON as the API gives it: {\"participants\": [...]}"},
+        kFormatOption,
         kNoHeadersOption,
     },
     run,

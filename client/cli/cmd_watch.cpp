@@ -7,7 +7,9 @@
 #include <signal.h>
 #include <sys/time.h>
 
+#include <algorithm>
 #include <atomic>
+#include <functional>
 #include <chrono>
 #include <ctime>
 #include <thread>
@@ -37,26 +39,72 @@ std::string clock_now() {
   return buf;
 }
 
-// What a `changed` event changed, from the device as last seen: "fw-version
-// 5.16.0.1 -> 5.16.1.0, addresses [..] -> [..]". The times seen are left out.
+// What a `changed` event changed, in words, from the device as last seen:
+// "fw-version 5.16.0.1 -> 5.16.1.0, now served by server-b (10.0.0.2), entered
+// recovery". Nested fields by their dotted names, lists joined by commas; the times
+// seen are left out.
 std::string changes(const std::string& before_json, const std::string& after_json) {
   const auto before = nlohmann::json::parse(before_json, nullptr, false);
   const auto after = nlohmann::json::parse(after_json, nullptr, false);
   if (!before.is_object() || !after.is_object()) return "";
-  const auto text = [](const nlohmann::json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); };
+  const nlohmann::json none;
+  const auto get = [&](const nlohmann::json& doc, const char* key) -> const nlohmann::json& {
+    const auto it = doc.find(key);
+    return it == doc.end() ? none : *it;
+  };
+  const auto shown = [](const nlohmann::json& v) {
+    const std::string text = value_text(v);
+    return text.empty() ? std::string("none") : text;
+  };
   std::vector<std::string> parts;
+  // Fields of an object that changed, as "prefix.key old -> new".
+  std::function<void(const std::string&, const nlohmann::json&, const nlohmann::json&)> fields =
+      [&](const std::string& prefix, const nlohmann::json& old, const nlohmann::json& now) {
+        if (old.is_object() && now.is_object()) {
+          for (const auto& [key, value] : now.items()) fields(prefix + "." + key, get(old, key.c_str()), value);
+          for (const auto& [key, value] : old.items())
+            if (!now.contains(key)) fields(prefix + "." + key, value, none);
+          return;
+        }
+        if (old == now) return;
+        const std::string name = prefix.substr(1);
+        if (old.is_null()) parts.push_back(name + " " + shown(now) + " (new)");
+        else if (now.is_null()) parts.push_back(name + " " + shown(old) + " (gone)");
+        else parts.push_back(name + " " + shown(old) + " \u2192 " + shown(now));
+      };
   for (const auto& [key, value] : after.items()) {
     if (key == "first-seen" || key == "last-seen") continue;
-    const auto old = before.find(key);
-    if (old == before.end()) parts.push_back(key + " " + text(value) + " (new)");
-    else if (*old != value) parts.push_back(key + " " + text(*old) + " \u2192 " + text(value));
+    const auto& old = get(before, key.c_str());
+    if (old == value) continue;
+    if (key == "recovery" && value.is_boolean()) {
+      parts.push_back(value.get<bool>() ? "entered recovery mode" : "left recovery mode");
+    } else if (key == "server" && value.is_object() && old.is_object() &&
+               get(old, "participant-guid") != get(value, "participant-guid")) {
+      // Another server announces it now (the first one went, or a second one spoke last).
+      std::string by = value_text(get(value, "participant-name"));
+      if (by.empty()) by = value_text(get(value, "participant-guid"));
+      const std::string at = value_text(get(value, "addresses"));
+      parts.push_back("now served by " + by + (at.empty() ? "" : " (" + at + ")"));
+    } else if (key == "warnings" && value.is_array()) {
+      for (const auto& w : value)
+        if (!old.is_array() || std::find(old.begin(), old.end(), w) == old.end()) parts.push_back("warning: " + value_text(w));
+      if (old.is_array())
+        for (const auto& w : old)
+          if (std::find(value.begin(), value.end(), w) == value.end()) parts.push_back("warning gone: " + value_text(w));
+    } else {
+      fields("." + key, old, value);
+    }
   }
   for (const auto& [key, value] : before.items())
-    if (!after.contains(key) && key != "first-seen" && key != "last-seen") parts.push_back(key + " (gone)");
+    if (!after.contains(key) && key != "first-seen" && key != "last-seen") {
+      if (key == "recovery") parts.push_back("left recovery mode");
+      else fields("." + key, value, none);
+    }
   return join(parts, ", ");
 }
 
-void print_event(const rsdiscovery::Event& e, bool json, const std::string* before) {
+// `initial`: the event is one of --initial's listing of what is there at the start.
+void print_event(const rsdiscovery::Event& e, bool json, bool initial, const std::string* before) {
   const auto& d = e.device;
   std::string line;
   if (json) {
@@ -64,6 +112,7 @@ void print_event(const rsdiscovery::Event& e, bool json, const std::string* befo
                           {"id", e.id},
                           {"synthetic", e.synthetic},
                           {"device", nlohmann::json::parse(d.json)}};
+    if (initial) out["initial"] = true;
     line = out.dump();
   } else {
     char type[16];
@@ -75,7 +124,8 @@ void print_event(const rsdiscovery::Event& e, bool json, const std::string* befo
     if (d.usb && !d.usb->port_path.empty()) line += "  usb " + d.usb->port_path;
     if (d.server && !d.server->addresses.empty()) line += "  " + device_addresses(d);
     if (d.recovery) line += "  " + paint("(recovery)", color::yellow);
-    if (e.synthetic) line += "  " + paint("(re-listed)", color::dim);
+    if (initial) line += "  " + paint("(present at start)", color::dim);
+    else if (e.synthetic) line += "  " + paint("(re-listed)", color::dim);
     if (e.type == rsdiscovery::Event::Type::changed && before) {
       const std::string what = changes(*before, d.json);
       if (!what.empty()) line += "  " + paint(what, color::yellow);
@@ -90,14 +140,24 @@ int run(const ParsedArgs& args) {
   if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
   rsdiscovery::WatchOptions options;
   options.filter = filter_from(args);
-  // Feedback on stderr while the daemon is away (stdout stays events only); the
-  // first connection is no news.
-  options.on_status = [lost = false](const rsdiscovery::WatchStatus& s) mutable {
-    if (s.connected && !lost) return;
+  // Feedback on stderr while the daemon is away (stdout stays events only): one line
+  // when it goes, one when it is back, however many attempts lie between; the first
+  // connection is no news. Runs on the library's thread.
+  std::atomic<bool> ever_lost{false};
+  options.on_status = [&ever_lost, lost = false,
+                       since = std::chrono::steady_clock::time_point()](const rsdiscovery::WatchStatus& s) mutable {
+    if (s.connected == !lost) return;  // no change: connected, or one more failed attempt
     lost = !s.connected;
-    std::fprintf(stderr, "rs-discover: %s %s\n", clock_now().c_str(),
-                 s.connected ? ("connected again" + (s.message.empty() ? "" : ": " + s.message)).c_str()
-                             : ("lost the daemon, reconnecting" + (s.message.empty() ? "" : " (" + s.message + ")")).c_str());
+    if (lost) {
+      ever_lost = true;
+      since = std::chrono::steady_clock::now();
+      std::fprintf(stderr, "rs-discover: %s lost the daemon, reconnecting%s\n", clock_now().c_str(),
+                   s.message.empty() ? "" : (" (" + s.message + ")").c_str());
+    } else {
+      const auto away = std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+      std::fprintf(stderr, "rs-discover: %s connected again after %.1f s%s\n", clock_now().c_str(), away,
+                   s.message.empty() ? "" : (": " + s.message).c_str());
+    }
   };
   options.initial = args.has("initial");
   if (args.has("last-event-id")) {
@@ -146,6 +206,9 @@ int run(const ParsedArgs& args) {
   auto deadline = std::chrono::steady_clock::now() +
                   std::chrono::milliseconds(static_cast<long long>(timeout * 1000));
   int seen = 0;
+  // --initial's listing: the synthetic events before the first one the daemon sent
+  // and before any outage (a re-list after one is reported as "re-listed").
+  bool listing = options.initial;
   while (count == 0 || seen < count) {
     std::optional<rsdiscovery::Event> e;
     if (has_timeout) {
@@ -157,8 +220,9 @@ int run(const ParsedArgs& args) {
       e = watch.next();
     }
     if (!e) break;  // stopped
+    listing = listing && e->synthetic && !ever_lost;
     const auto it = last.find(e->device.id);
-    print_event(*e, json, it == last.end() ? nullptr : &it->second);
+    print_event(*e, json, listing, it == last.end() ? nullptr : &it->second);
     if (e->type == rsdiscovery::Event::Type::removed) last.erase(e->device.id);
     else last[e->device.id] = e->device.json;
     ++seen;
@@ -181,11 +245,13 @@ const Command kWatchCommand = {
     "       [-c N] [-t S]",
     "Print one line per change of the device table (added, changed, removed) until interrupted,\n"
     "with the local date and time; a 'changed' line says what changed (fw-version 5.16.0.1 ->\n"
-    "5.16.1.0). The stream resumes by itself when the daemon restarts (said on stderr); what\n"
-    "changed meanwhile is reported too (marked as re-listed).",
+    "5.16.1.0, now served by NAME (ADDRESS), entered recovery mode). With --initial the\n"
+    "cameras there at the start come first, marked 'present at start'. The stream resumes by\n"
+    "itself when the daemon restarts (one line on stderr when it goes, one when it is back);\n"
+    "what changed meanwhile is reported too (marked as re-listed).",
     with_device_filters({
         {"json", 'j', nullptr,
-         "one JSON object a line: {\"event\", \"id\", \"synthetic\", \"device\"}"},
+         "one JSON object a line: {\"event\", \"id\", \"synthetic\", \"device\"} (and \"initial\": true)"},
         {"initial", 'i', nullptr, "first report every device present now as added"},
         {"count", 'c', "N", "exit after N events"},
         {"timeout", 't', "S", "exit after S seconds (status 1 if --count events did not come)"},

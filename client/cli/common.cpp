@@ -4,10 +4,14 @@
 #include <nlohmann/json.hpp>
 
 #include <getopt.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <charconv>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -193,8 +197,50 @@ rsdiscovery::ClientOptions client_options(const ParsedArgs& args) {
   return options;
 }
 
+namespace {
+// 0 when something accepts a connection on the Unix socket at `path`, else errno.
+int connect_error(const std::string& path) {
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  if (path.size() >= sizeof addr.sun_path) return ENAMETOOLONG;
+  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return errno;
+  const int rc = ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
+  const int err = rc == 0 ? 0 : errno;
+  ::close(fd);
+  return err;
+}
+}  // namespace
+
 rsdiscovery::Client make_client(const ParsedArgs& args) {
-  return rsdiscovery::Client(args.get("endpoint"), client_options(args));
+  const auto options = client_options(args);
+  const char* env = std::getenv("RS_DISCOVERY_ENDPOINT");
+  if (args.has("endpoint") || (env && *env)) return rsdiscovery::Client(args.get("endpoint"), options);
+  // No endpoint given: the daemon's default socket, or, when there is no socket there
+  // or nothing listens on it, the daemon's default HTTP address on loopback (a daemon
+  // run as another user, in a container, or with a socket made elsewhere). Only a
+  // missing or refused socket: a permission error says which group to join.
+  auto socket = rsdiscovery::Endpoint::default_socket();
+  const int err = connect_error(socket.path);
+  if (err != ENOENT && err != ENOTDIR && err != ECONNREFUSED) return rsdiscovery::Client(socket, options);
+  const auto http = rsdiscovery::Endpoint::parse("127.0.0.1");  // the daemon's default port
+  const std::string why = err == ECONNREFUSED ? "nothing listens on " + socket.path : "no socket at " + socket.path;
+  try {
+    auto quick = options;
+    quick.connect_timeout = std::chrono::milliseconds(500);
+    rsdiscovery::Client client(http, quick);
+    client.health();  // it is rs-discoveryd that answers there
+    std::fprintf(stderr, "rs-discover: %s; using %s\n", why.c_str(), http.to_string().c_str());
+    return rsdiscovery::Client(http, options);
+  } catch (const rsdiscovery::Error& e) {
+    const std::string there = e.code() == rsdiscovery::ErrorCode::not_running
+                                  ? "nothing answers at " + http.to_string()
+                                  : http.to_string() + " is not rs-discoveryd (" + e.what() + ")";
+    throw rsdiscovery::Error(rsdiscovery::ErrorCode::not_running,
+                             "cannot reach rs-discoveryd: " + why + ", and " + there +
+                                 " (is it running? Give its endpoint with --endpoint or RS_DISCOVERY_ENDPOINT)");
+  }
 }
 
 rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args) {
@@ -364,39 +410,124 @@ std::size_t width(const std::string& s) {
 }
 }  // namespace
 
-std::string format_device(const std::string& tmpl, const rsdiscovery::Device& d) {
-  const auto doc = nlohmann::json::parse(d.json, nullptr, false);
-  const auto field = [&](const std::string& key) -> std::string {
-    if (key == "state") return device_state(d);
-    if (key == "location") return device_location(d);
-    if (key == "address") return device_addresses(d);
-    if (key == "sources") return device_sources(d);
-    if (key == "age") return age_since(d.first_seen);
-    if (!doc.is_object()) return "";
-    const auto it = doc.find(key);
-    if (it == doc.end() || it->is_null()) return "";
-    return it->is_string() ? it->get<std::string>() : it->dump();
-  };
+const std::vector<std::string>& device_fields() {
+  static const std::vector<std::string> fields = {
+      "id", "name", "serial", "product-line", "product-id", "fw-version", "topic-root", "source", "sources",
+      "domain", "recovery", "warnings", "merged-into", "first-seen", "last-seen", "server",
+      "server.participant-name", "server.participant-guid", "server.writer-guid", "server.addresses", "usb",
+      "usb.bus", "usb.address", "usb.port-path", "usb.speed", "usb.speed-mbps", "usb.vid", "usb.pid",
+      "usb.usb-version", "usb.sysfs-path", "state", "location", "address", "age"};
+  return fields;
+}
+
+const std::vector<std::string>& participant_fields() {
+  static const std::vector<std::string> fields = {
+      "domain", "guid", "name", "vendor", "vendor-id", "addresses", "host", "process", "pid", "lease-seconds",
+      "state", "first-seen", "last-seen", "device-info-writers", "devices", "silent-writers", "never-announced",
+      "topic-roots", "endpoints"};
+  return fields;
+}
+
+std::optional<std::string> device_computed(const rsdiscovery::Device& d, const std::string& field) {
+  if (field == "state") return device_state(d);
+  if (field == "location") return device_location(d);
+  if (field == "address") return device_addresses(d);
+  if (field == "sources") return device_sources(d);
+  if (field == "age") return age_since(d.first_seen);
+  return std::nullopt;
+}
+
+void print_formatted(const Template& tmpl, const std::vector<rsdiscovery::Device>& devices) {
+  std::vector<nlohmann::json> docs;
+  docs.reserve(devices.size());
+  for (const auto& d : devices) docs.push_back(nlohmann::json::parse(d.json, nullptr, false));
+  tmpl.check(docs);
   std::string out;
+  for (std::size_t i = 0; i < devices.size(); ++i)
+    out += tmpl.render(docs[i], [&](const std::string& f) { return device_computed(devices[i], f); }) + "\n";
+  std::fputs(out.c_str(), stdout);
+}
+
+std::string value_text(const nlohmann::json& v) {
+  if (v.is_null()) return "";
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_array()) {
+    std::vector<std::string> parts;
+    for (const auto& item : v) parts.push_back(value_text(item));
+    return join(parts, ",");
+  }
+  return v.dump();
+}
+
+namespace {
+// The value at a dotted path ("server.addresses"), or nullptr.
+const nlohmann::json* at_path(const nlohmann::json& doc, const std::string& path) {
+  const nlohmann::json* v = &doc;
+  std::size_t from = 0;
+  for (;;) {
+    if (!v->is_object()) return nullptr;
+    const auto dot = path.find('.', from);
+    const auto it = v->find(path.substr(from, dot == std::string::npos ? std::string::npos : dot - from));
+    if (it == v->end()) return nullptr;
+    v = &*it;
+    if (dot == std::string::npos) return v;
+    from = dot + 1;
+  }
+}
+}  // namespace
+
+Template::Template(const std::string& tmpl, std::vector<std::string> known) : known_(std::move(known)) {
+  std::string literal;
   for (std::size_t i = 0; i < tmpl.size(); ++i) {
     const char c = tmpl[i];
     const char next = i + 1 < tmpl.size() ? tmpl[i + 1] : '\0';
     if ((c == '{' && next == '{') || (c == '}' && next == '}')) {
-      out += c;
+      literal += c;
       ++i;
     } else if (c == '{') {
       const auto close = tmpl.find('}', i);
       if (close == std::string::npos) throw UsageError("--format: '{' at " + std::to_string(i + 1) + " is never closed");
-      out += field(tmpl.substr(i + 1, close - i - 1));
+      if (!literal.empty()) pieces_.push_back({false, std::move(literal)});
+      literal.clear();
+      pieces_.push_back({true, tmpl.substr(i + 1, close - i - 1)});
       i = close;
     } else if (c == '}') {
       throw UsageError("--format: '}' at " + std::to_string(i + 1) + " closes nothing (write }} for a brace)");
     } else if (c == '\\' && (next == 'n' || next == 't')) {
-      out += next == 'n' ? '\n' : '\t';
+      literal += next == 'n' ? '\n' : '\t';
       ++i;
     } else {
-      out += c;
+      literal += c;
     }
+  }
+  if (!literal.empty()) pieces_.push_back({false, std::move(literal)});
+}
+
+void Template::check(const std::vector<nlohmann::json>& docs) const {
+  for (const auto& piece : pieces_) {
+    if (!piece.field) continue;
+    if (std::find(known_.begin(), known_.end(), piece.text) != known_.end()) continue;
+    if (std::any_of(docs.begin(), docs.end(), [&](const nlohmann::json& d) { return at_path(d, piece.text); }))
+      continue;
+    throw UsageError("--format: unknown field '{" + piece.text + "}'; the fields are {" + join(known_, "}, {") +
+                     "} (and any other key a document has)");
+  }
+}
+
+std::string Template::render(const nlohmann::json& doc,
+                             const std::function<std::optional<std::string>(const std::string&)>& computed) const {
+  std::string out;
+  for (const auto& piece : pieces_) {
+    if (!piece.field) {
+      out += piece.text;
+      continue;
+    }
+    if (computed)
+      if (auto v = computed(piece.text)) {
+        out += *v;
+        continue;
+      }
+    if (const auto* v = at_path(doc, piece.text)) out += value_text(*v);
   }
   return out;
 }

@@ -4,7 +4,10 @@
 
 #include <rsdiscovery/rsdiscovery.hpp>
 
+#include <nlohmann/json.hpp>
+
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -121,12 +124,43 @@ std::string device_sources(const rsdiscovery::Device& d);
 std::string age_since(const std::string& iso8601);
 std::optional<double> parse_iso8601(const std::string& text);  // Unix seconds
 
-// --format: TEMPLATE with {field} replaced by the device's field: any key of its
-// document ({name}, {serial}, {fw-version}, {topic-root} ...; strings bare, other
-// values as JSON, absent ones empty) or one the table shows ({state}, {location},
-// {address}, {sources}, {age}). {{ and }} are braces; \t and \n a tab and a line
-// break. Throws UsageError for a brace left open.
-std::string format_device(const std::string& tmpl, const rsdiscovery::Device& d);
+// --format: TEMPLATE with {field} replaced by a field of the thing shown: any key of
+// its document ({name}, {serial}, {fw-version} ...), a nested one with dots
+// ({server.addresses}, {usb.port-path}); strings bare, lists joined by commas, other
+// values as JSON, absent ones empty. {{ and }} are braces; \t and \n a tab and a line
+// break. A brace left open or a field the thing does not have is a UsageError (exit 2)
+// naming the fields there are.
+class Template {
+ public:
+  // `known`: the fields the API documents, and those computed by the caller.
+  Template(const std::string& text, std::vector<std::string> known);
+  // A field neither documented nor in any of these documents (a device may carry
+  // more of its device-info than the API documents) is an error.
+  void check(const std::vector<nlohmann::json>& docs) const;
+  // `computed`: the value of a field that is not in the document ({state}, {age} ...).
+  std::string render(const nlohmann::json& doc,
+                     const std::function<std::optional<std::string>(const std::string&)>& computed = {}) const;
+
+ private:
+  struct Piece {
+    bool field;
+    std::string text;  // literal text, or the field's dotted path
+  };
+  std::vector<Piece> pieces_;
+  std::vector<std::string> known_;
+};
+
+// The fields of a device and of a participant, as the API documents them.
+const std::vector<std::string>& device_fields();  // with {state}, {location}, {address}, {age}
+const std::vector<std::string>& participant_fields();
+// A device's value of {state}, {location}, {address}, {sources}, {age}.
+std::optional<std::string> device_computed(const rsdiscovery::Device& d, const std::string& field);
+// Checks `tmpl` against the devices, then prints each as it says, one a line.
+void print_formatted(const Template& tmpl, const std::vector<rsdiscovery::Device>& devices);
+inline constexpr OptionSpec kFormatOption = {"format", 'f', "TEMPLATE",
+                                             "print each as TEMPLATE says ({name}, {server.addresses}, ...; see above)"};
+// A JSON value as text: a string bare, a list joined by commas, null empty.
+std::string value_text(const nlohmann::json& v);
 
 // A table like `docker ps`: columns padded to their widest cell, two spaces apart.
 class Table {

@@ -5,12 +5,14 @@
 # without waiting for its first discovery so a Tab never hangs.
 
 _rs_discover_daemon() {
-    # The user's --endpoint, if the line has one, reaches the same daemon.
+    # The user's --endpoint, if the line has one, reaches the same daemon. `words`
+    # and `cword` are _rs_discover's: the line split with ':' and '=' kept inside
+    # words (COMP_WORDS has unix:/path as three words, unix : /path).
     local i endpoint=()
-    for ((i = 1; i < ${#COMP_WORDS[@]} - 1; i++)); do
-        case "${COMP_WORDS[i]}" in
-            --endpoint) endpoint=(--endpoint "${COMP_WORDS[i + 1]}") ;;
-            --endpoint=*) endpoint=("${COMP_WORDS[i]}") ;;
+    for ((i = 1; i < cword; i++)); do
+        case "${words[i]}" in
+            --endpoint) endpoint=(--endpoint "${words[i + 1]}") ;;
+            --endpoint=*) endpoint=("${words[i]}") ;;
         esac
     done
     timeout 2 rs-discover "${endpoint[@]}" list --no-wait-complete "$@" 2>/dev/null
@@ -18,7 +20,9 @@ _rs_discover_daemon() {
 
 _rs_discover() {
     local cur prev words cword
-    _init_completion -n = || return
+    # ':' and '=' do not split words here (both are in COMP_WORDBREAKS): an endpoint
+    # such as unix:/run/x.sock or http://host:8035 stays one word.
+    _init_completion -n =: || return
 
     local i command=""
     for ((i = 1; i < cword; i++)); do

@@ -242,6 +242,13 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
     } else if (arg == "-c" || arg == "--config") {
       config_file = next();
       explicit_config = true;
+    } else if (arg == "--check-config") {
+      // As nginx -t: validate FILE (or --config's, or the default one) and exit.
+      cl.action = CommandAction::check_config;
+      if (has_inline || (i + 1 < argc && argv[i + 1][0] != '-')) {
+        config_file = next();
+        explicit_config = true;
+      }
     } else if (arg == "-d" || arg == "--domain") {
       domains.push_back(parse_domain(next(), "--domain"));
       set_domains = true;
@@ -352,6 +359,9 @@ plugged in over USB, and serves it as JSON on a Unix socket and over HTTP.
 Options:
   -c, --config FILE          JSON configuration file (default: /etc/rs-discoveryd/config.json
                              when it exists). Flags override the file.
+      --check-config [FILE]  read and validate the configuration (FILE, else --config's or
+                             the default file) with the other flags, print it, and exit:
+                             0 valid, 1 invalid (FILE:LINE:COLUMN: what)
   -d, --domain N             DDS domain to watch, 0-232; repeat for several (default: 0)
       --socket PATH|off      Unix socket for the API (default: $RUNTIME_DIRECTORY/api.sock,
                              else /run/rs-discoveryd/api.sock for root,

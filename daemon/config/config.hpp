@@ -50,7 +50,8 @@ struct Config {
   std::string config_file;        // where the file part came from ("" : none)
 };
 
-enum class CommandAction { run, help, version };
+// check_config: --check-config [FILE], read and validate the configuration, then exit.
+enum class CommandAction { run, help, version, check_config };
 
 struct CommandLine {
   CommandAction action = CommandAction::run;

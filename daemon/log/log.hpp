@@ -1,5 +1,6 @@
 // Logging to stderr with syslog priority prefixes ("<6>..."), which journald
-// turns into real priorities when the daemon runs as a service. Thread-safe: DDS
+// turns into real priorities when the daemon runs as a service; on a terminal,
+// with the local time and the level's word instead ("... 08:50:01.123 info: ..."). Thread-safe: DDS
 // listener threads, the libusb thread and API workers all log.
 #pragma once
 

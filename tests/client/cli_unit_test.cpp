@@ -49,4 +49,36 @@ TEST(ParseIso8601, RefusesWhatIsNotADate) {
     EXPECT_FALSE(rsdiscover::parse_iso8601(bad)) << bad;
 }
 
+TEST(Template, NestedFieldsListsAndBraces) {
+  const auto doc = nlohmann::json::parse(R"({"serial": "123", "domain": 5, "recovery": false,
+      "server": {"addresses": ["10.0.0.1", "10.0.0.2"], "participant-name": "srv"}, "warnings": []})");
+  const rsdiscover::Template t("{serial}\\t{server.addresses} {domain} {recovery} {server.participant-name} "
+                               "[{warnings}] [{usb.port-path}] {{x}}",
+                               rsdiscover::device_fields());
+  t.check({doc});
+  EXPECT_EQ(t.render(doc), "123\t10.0.0.1,10.0.0.2 5 false srv [] [] {x}");
+  EXPECT_EQ(rsdiscover::Template("{state}", {"state"}).render(doc, [](const std::string& f) {
+    return f == "state" ? std::optional<std::string>("ok") : std::nullopt;
+  }), "ok");
+}
+
+TEST(Template, AnUnknownFieldNamesTheKnownOnes) {
+  const auto doc = nlohmann::json::parse(R"({"serial": "123", "custom": {"deep": 1}})");
+  const rsdiscover::Template unknown("{seria}", rsdiscover::device_fields());
+  try {
+    unknown.check({doc});
+    FAIL() << "no error";
+  } catch (const rsdiscover::UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown field '{seria}'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("{serial}, "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("{server.addresses}"), std::string::npos) << e.what();
+  }
+  // A key a document has, though undocumented, is a field.
+  const rsdiscover::Template custom("{custom.deep}", rsdiscover::device_fields());
+  EXPECT_NO_THROW(custom.check({doc}));
+  EXPECT_EQ(custom.render(doc), "1");
+  EXPECT_THROW(rsdiscover::Template("{serial", {}), rsdiscover::UsageError);
+  EXPECT_THROW(rsdiscover::Template("serial}", {}), rsdiscover::UsageError);
+}
+
 }  // namespace

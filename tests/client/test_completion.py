@@ -91,3 +91,109 @@ def test_zsh_offers_the_same(camera_env):
     """], capture_output=True, text=True, env=env, timeout=30)
     assert sorted(commands.stdout.split()) == sorted(
         ["list", "get", "describe", "watch", "domains", "participants", "doctor", "health"]), commands.stderr
+
+
+class Terminal:
+    """An interactive shell on a pseudo-terminal, as a user at a prompt: Tab goes to the
+    shell's own completion (bash's readline, with COMP_WORDBREAKS as it is, and zsh's
+    compinit), not a stand-in."""
+
+    def __init__(self, argv, env, setup):
+        import pty
+        import fcntl
+        import struct
+        import termios
+        self.master, slave = pty.openpty()
+        fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 50, 400, 0, 0))  # no wrapped lines
+        self.proc = subprocess.Popen(argv, stdin=slave, stdout=slave, stderr=slave, env=env, start_new_session=True)
+        os.close(slave)
+        self.buffer = ""
+        for command in setup:
+            self.run(command)
+
+    def read_until(self, marker, timeout=20):
+        import select
+        import time
+        deadline = time.monotonic() + timeout
+        while marker not in self.buffer:
+            left = deadline - time.monotonic()
+            assert left > 0, f"no {marker!r} from the shell; it printed:\n{self.buffer[-3000:]}"
+            if select.select([self.master], [], [], left)[0]:
+                try:
+                    self.buffer += os.read(self.master, 65536).decode("utf-8", "replace")
+                except OSError:  # the shell ended
+                    break
+        found = self.buffer.index(marker)
+        out, self.buffer = self.buffer[:found], self.buffer[found + len(marker):]
+        return out
+
+    def run(self, command):
+        """Runs `command` at the prompt and waits for it to end."""
+        os.write(self.master, f"{command}; echo DONE''$?\r".encode())
+        self.read_until("DONE0")
+
+    def complete(self, line):
+        """Types `line`, presses Tab once, and returns the line as the shell has it then
+        (read back by putting `echo LINE:` in front of it and pressing Enter)."""
+        os.write(self.master, line.encode() + b"\t")
+        os.write(self.master, b"\x01echo LINE:\r")  # Ctrl-A: to the start of the line
+        self.read_until("\nLINE:")
+        return self.read_until("\n").strip()
+
+    def close(self):
+        self.proc.kill()
+        self.proc.wait()
+        os.close(self.master)
+
+
+@pytest.fixture
+def endpoint_env(camera_env, tmp_path):
+    """No endpoint in the environment, and no daemon at the default socket: only the
+    line's --endpoint reaches the camera's daemon."""
+    d, info, env = camera_env
+    env = {k: v for k, v in env.items() if k != "RS_DISCOVERY_ENDPOINT"}
+    env.update(RUNTIME_DIRECTORY=str(tmp_path / "nothing-here"), TERM="dumb", HOME=str(tmp_path))
+    return d, info, env
+
+
+def endpoints(d):
+    return [f"--endpoint unix:{d.socket}", f"--endpoint http://127.0.0.1:{d.port}", f"--endpoint=unix:{d.socket}",
+            f"--endpoint=http://127.0.0.1:{d.port}"]
+
+
+def test_bash_completes_ids_after_every_form_of_endpoint(endpoint_env):
+    d, info, env = endpoint_env
+    device_id = d.devices()[0]["id"]
+    shell = Terminal(["bash", "--norc", "--noprofile", "-i"], env, [
+        "PS1='$ '", "bind 'set enable-bracketed-paste off'", "bind 'set bell-style none'",
+        "source /usr/share/bash-completion/bash_completion", f"source {BASH}",
+        "[[ $COMP_WORDBREAKS == *:* && $COMP_WORDBREAKS == *=* ]]"])  # the default, splitting at ':' and '='
+    try:
+        for endpoint in endpoints(d):
+            assert shell.complete(f"rs-discover {endpoint} get dds-") == \
+                f"rs-discover {endpoint} get {device_id}", endpoint
+            assert shell.complete(f"rs-discover {endpoint} describe 1236") == \
+                f"rs-discover {endpoint} describe {info['serial']}", endpoint
+            # after the command, too
+            assert shell.complete(f"rs-discover get {endpoint} dds-") == \
+                f"rs-discover get {endpoint} {device_id}", endpoint
+    finally:
+        shell.close()
+
+
+def test_zsh_completes_ids_after_every_form_of_endpoint(endpoint_env):
+    d, info, env = endpoint_env
+    device_id = d.devices()[0]["id"]
+    shell = Terminal(["zsh", "-f", "-i"], dict(env, PS1="$ "), [
+        "bindkey -e", "unsetopt beep", f"fpath=({os.path.dirname(ZSH)} $fpath)", "autoload -Uz compinit",
+        "compinit -u -D"])
+    try:
+        for endpoint in endpoints(d):
+            assert shell.complete(f"rs-discover {endpoint} get dds-") == \
+                f"rs-discover {endpoint} get {device_id}", endpoint
+            assert shell.complete(f"rs-discover {endpoint} describe 1236") == \
+                f"rs-discover {endpoint} describe {info['serial']}", endpoint
+            assert shell.complete(f"rs-discover get {endpoint} dds-") == \
+                f"rs-discover get {endpoint} {device_id}", endpoint
+    finally:
+        shell.close()

@@ -1,7 +1,11 @@
 """The daemon's page (GET /) in a real headless Chromium (Debian's, driven by
 selenium): a realdds camera appears on it within a second of the daemon listing it
 and goes on 'stopping'; its details and description open; a camera in recovery is
-highlighted; the network view lists the realdds server. The spec is served at
+highlighted, and keeps its colour under the pointer; the selected row stands out and
+its details scroll into view (a phone too), a #id link opens a camera, times show
+UTC, how long ago and local time; option values and ranges read as `rs-discover
+describe` prints them; the table is marked stale while the daemon is unreachable;
+the network view lists the realdds server. The spec is served at
 /openapi.yaml. A screenshot of the page is kept as a test artifact
 (RSD_BUILD_DIR/web-page.png), phone-sized and dark too."""
 import json
@@ -143,3 +147,134 @@ def test_spec_is_served_as_shipped(daemon, free_domain):
     assert b"<script" in body and b"src=\"http" not in body and b"href=\"http" not in body  # nothing from elsewhere
     status, _, body = d.request("/?page=2")
     assert status == 400 and json.loads(body)["status"] == 400
+
+
+def test_options_hover_and_stale(daemon, realdds_server, free_domain, browser, tmp_path):
+    """Option values and ranges as `rs-discover describe` shows them; a camera in
+    recovery keeps its colour under the pointer; while the daemon is unreachable the
+    table says its state is unknown, not ok, and comes back when the daemon does."""
+    import subprocess
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    camera = device_info(4, name="Intel RealSense D455 options")
+    broken = device_info(5, name="Intel RealSense D455 broken", recovery=True)
+    server = realdds_server(free_domain, [], name="web-options-server")
+    server.command(cmd="add", info=camera, spec=SPEC)
+    server.command(cmd="add", info=broken)
+    d = daemon([free_domain])
+    wait_for(lambda: len(d.devices()) == 2, 20, what="both cameras")
+    browser.get(d.url + "/")
+    wait_rows(browser, lambda r: "Intel RealSense D455 broken" in r and "Intel RealSense D455 options" in r, 15,
+              "both cameras on the page")
+
+    # Hover: a plain row is tinted, the recovery one keeps its red.
+    def background(name):
+        return browser.execute_script(
+            "return getComputedStyle([...document.querySelectorAll('#devices tbody tr')]"
+            ".find((tr) => tr.cells[0].innerText === arguments[0])).backgroundColor", name)
+    before = background("Intel RealSense D455 broken")
+    row = browser.find_element(By.CSS_SELECTOR, f'#devices tr[data-id="{rows(browser)["Intel RealSense D455 broken"]["id"]}"]')
+    ActionChains(browser).move_to_element(row).perform()
+    assert browser.execute_script("return document.querySelector('#devices tbody tr:hover') !== null")
+    assert background("Intel RealSense D455 broken") == before == "rgb(255, 227, 227)"
+
+    # The options, valued as describe prints them.
+    options_id = rows(browser)["Intel RealSense D455 options"]["id"]
+    browser.find_element(By.CSS_SELECTOR, f'#devices tr[data-id="{options_id}"]').click()
+    browser.find_element(By.ID, "describe").click()
+    wait_for(lambda: browser.execute_script("return !!document.getElementById('options')"), 40,
+             what="the options table")
+    shown = {r["first"]: r["text"] for r in browser.execute_script("""
+        return [...document.querySelectorAll('#options tbody tr')].map((tr) => ({
+          first: tr.cells[0].innerText, text: [...tr.cells].map((c) => c.innerText).join('|')}));""")}
+    cli = os.path.join(ARTIFACTS, "client", "rs-discover")
+    described = subprocess.run([cli, "--endpoint", "unix:" + d.socket, "describe", options_id],
+                               capture_output=True, text=True, timeout=60)
+    assert described.returncode == 0, described.stderr
+    expected = {"Laser Power": "150 (0..360, step 30, default 150)",
+                "Exposure": "8500 (1..165000, step 1, default 8500)",
+                "Backlight Compensation": "0 (0..1, step 1, default 0)"}
+    for name, value in expected.items():
+        assert value in shown[name], shown
+        assert any(line.startswith(name) and value in line for line in described.stdout.splitlines()), described.stdout
+    assert shown["Laser Power"].split("|")[1] == "device" and shown["Exposure"].split("|")[1] == "Depth"
+
+    # The daemon goes away: the table is marked stale, no camera said to be ok.
+    port = d.port
+    d.stop()
+    wait_for(lambda: "stale" in browser.find_element(By.ID, "devices").get_attribute("class"), 15,
+             what="the table marked stale")
+    assert browser.find_element(By.ID, "stale").is_displayed()
+    assert "unreachable" in browser.find_element(By.ID, "stale").text
+    states = [r["text"].split("\t")[-1] for r in rows(browser).values()]
+    assert all("ok" not in s and "unknown" in s for s in states), states
+    # It comes back on the same port: live again, the states as they are.
+    d2 = daemon([free_domain], extra=["--http", f"127.0.0.1:{port}"])
+    wait_for(lambda: len(d2.devices()) == 2, 20, what="both cameras in the restarted daemon")
+    wait_for(lambda: "stale" not in browser.find_element(By.ID, "devices").get_attribute("class"), 20,
+             what="the table live again")
+    assert not browser.find_element(By.ID, "stale").is_displayed()
+    assert "ok" in rows(browser)["Intel RealSense D455 options"]["text"]
+    server.quit()
+
+
+def test_selection_deep_link_and_times_on_a_phone(daemon, realdds_server, free_domain, browser):
+    """A link to a camera (#id) opens its details; the selected row stands out and its
+    details, below the list on a phone, are scrolled into view; times are shown in UTC,
+    how long ago, and in the browser's time zone."""
+    from datetime import datetime, timedelta
+    from selenium.webdriver.common.by import By
+
+    infos = [device_info(30 + i, name=f"Intel RealSense D435 n{i}") for i in range(6)]
+    server = realdds_server(free_domain, infos)
+    d = daemon([free_domain])
+    wait_for(lambda: len(d.devices()) == 6, 20, what="six cameras")
+    listed = sorted(d.devices(), key=lambda x: x["id"])
+    browser.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",
+                            {"width": 390, "height": 844, "deviceScaleFactor": 2, "mobile": True})
+    browser.execute_cdp_cmd("Emulation.setTimezoneOverride", {"timezoneId": "Asia/Kolkata"})  # UTC+05:30
+
+    def in_view(element_id):
+        return browser.execute_script("""const r = document.getElementById(arguments[0]).getBoundingClientRect();
+            return r.height > 0 && r.top >= 0 && r.top < window.innerHeight;""", element_id)
+
+    def selected_rows():
+        return [r["id"] for r in rows(browser).values() if "selected" in r["class"].split()]
+
+    # A deep link to the last camera: its details open, in view, its row selected.
+    last = listed[-1]
+    browser.get(d.url + "/#" + last["id"])
+    wait_for(lambda: browser.find_element(By.ID, "details").is_displayed(), 15, what="the linked camera's details")
+    assert last["id"] in browser.find_element(By.ID, "details").text
+    assert selected_rows() == [last["id"]]
+    assert browser.execute_script("return document.documentElement.scrollHeight") > 844  # the list is long
+    wait_for(lambda: in_view("details"), 5, what="the details scrolled into view")
+
+    # The times: UTC as the API has it, how long ago, and the local time (UTC+05:30).
+    text = browser.find_element(By.ID, "details").text
+    seen = datetime.strptime(last["first-seen"][:19], "%Y-%m-%dT%H:%M:%S")
+    local = seen + timedelta(hours=5, minutes=30)
+    assert seen.strftime("%Y-%m-%d %H:%M:%S UTC") in text, text
+    assert " s ago" in text or " min ago" in text, text
+    assert f"{local.hour % 12 or 12}:{local.minute:02d}:{local.second:02d}" in text, text
+
+    # Picking the first row (a tap at the top of the list): selected, linked, details in view.
+    # (A click event on the row: WebDriver's pointer lands off target under the phone's
+    # emulated scale factor.)
+    first = listed[0]
+    browser.execute_script("window.scrollTo(0, 0)")
+    browser.execute_script("arguments[0].click()",
+                           browser.find_element(By.CSS_SELECTOR, f'#devices tr[data-id="{first["id"]}"]'))
+    assert selected_rows() == [first["id"]]
+    assert browser.execute_script("return location.hash") == "#" + first["id"]
+    assert first["serial"] in browser.find_element(By.ID, "details-title").text
+    wait_for(lambda: in_view("details"), 5, what="the details scrolled into view")
+    shadow = browser.execute_script(
+        "return getComputedStyle(document.querySelector('#devices tr.selected')).boxShadow")
+    assert shadow != "none", shadow
+    # The link, opened anew, shows the same camera.
+    browser.get(d.url + "/#" + first["id"])
+    wait_for(lambda: browser.find_element(By.ID, "details").is_displayed(), 15, what="the details from the link")
+    assert first["serial"] in browser.find_element(By.ID, "details-title").text
+    server.quit()
