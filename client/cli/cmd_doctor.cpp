@@ -519,8 +519,15 @@ std::string unreachable_hint(const rsdiscovery::Error& e, const rsdiscovery::End
                                        : " (the address is the daemon's \"http\" setting; it does not answer at " +
                                              http + " now)");
   if (e.code() == rsdiscovery::ErrorCode::permission_denied && endpoint.kind == rsdiscovery::Endpoint::Kind::unix_socket) {
+    // Said here whole, not after the library's message (which names the group too).
     const std::string me = user_name(geteuid());
-    std::string out = "the daemon runs, but this user (" + me + ") may not use its socket";
+    std::string out = "permission denied on " + endpoint.path;
+    if (struct stat st {}; ::stat(endpoint.path.c_str(), &st) == 0) {
+      char mode[8];
+      std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+      out += " (owned by " + user_name(st.st_uid) + ":" + group_name(st.st_gid) + ", mode " + mode + ")";
+    }
+    out += ": the daemon runs, but this user (" + me + ") may not use its socket";
     if (const auto g = group_to_join(endpoint.path))
       out += ": join group " + *g + " ('sudo usermod -aG " + *g + " " + me + "', then log in again)" +
              (use_http.empty() ? "" : ", or " + use_http);
@@ -546,7 +553,9 @@ int run(const ParsedArgs& args) {
     health = client.health();
   } catch (const rsdiscovery::Error& e) {
     const std::string hint = unreachable_hint(e, client.endpoint());
-    report.add(Verdict::fail, "daemon", std::string(e.what()) + (hint.empty() ? "" : "; " + hint));
+    const bool whole = e.code() == rsdiscovery::ErrorCode::permission_denied &&
+                       client.endpoint().kind == rsdiscovery::Endpoint::Kind::unix_socket;
+    report.add(Verdict::fail, "daemon", whole ? hint : std::string(e.what()) + (hint.empty() ? "" : "; " + hint));
     report.print(args.has("json"));
     return e.code() == rsdiscovery::ErrorCode::not_running || e.code() == rsdiscovery::ErrorCode::permission_denied
                ? kUnreachable
