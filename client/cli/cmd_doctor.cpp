@@ -1,15 +1,26 @@
 // rs-discover doctor: why a camera is missing. Checks the usual causes, from what the
-// daemon knows (its domains, the participants it hears, its cameras, USB) and, when
-// the daemon runs on this host, from the host's network (interfaces, multicast route),
+// daemon knows (its domains, the participants it hears, its cameras, USB), from
+// what this host hears on every DDS domain's discovery port (spdp.hpp) and, when the
+// daemon runs on this host, from the host's network (interfaces, multicast route),
 // and says what to do, one line each.
+//
+// Verdicts: `warn` and `fail` are findings that explain a missing camera (exit 1);
+// `info` ones are worth knowing but explain none, so a healthy network, however busy,
+// exits 0. A finding about a participant holds for the participant, not for each of
+// its addresses: a server on two networks is on both.
 #include "common.hpp"
+#include "spdp.hpp"
 
 #include <nlohmann/json.hpp>
 
 #include <arpa/inet.h>
+#include <grp.h>
 #include <ifaddrs.h>
 #include <net/if.h>
 #include <netinet/in.h>
+#include <pwd.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <fstream>
 #include <map>
@@ -48,7 +59,8 @@ class Report {
         std::printf("%s %-10s %s\n", paint(label, code(f.verdict)).c_str(), f.topic.c_str(), f.text.c_str());
       }
     }
-    // 0: nothing wrong found; 1: something to fix (a warning or a failure).
+    // 0: nothing found that explains a missing camera; 1: something to fix (a
+    // warning or a failure). `info` lines never change it.
     return worst >= static_cast<int>(Verdict::warn) ? kNotFound : kOk;
   }
 
@@ -191,6 +203,65 @@ std::string who(const rsdiscovery::Participant& p) {
 
 // ---- the checks ------------------------------------------------------------------------
 
+// Who announces itself on a domain the daemon does not join: the likeliest reason a
+// camera is missing. Heard here for a few seconds (spdp.hpp); a Fast DDS participant
+// may be a realdds camera server (librealsense programs run on Fast DDS too, and
+// which topics a participant writes is not in its announcement), so it is a `warn`;
+// other implementations (ROS 2 on Cyclone, other tools) only `info`.
+void check_other_domains(Report& r, const std::vector<rsdiscovery::DomainStatus>& domains,
+                         const std::optional<spdp::Heard>& heard, double listened_s) {
+  std::set<int> mine;
+  for (const auto& d : domains) mine.insert(d.domain);
+  std::vector<std::string> joined;
+  for (int d : mine) joined.push_back(std::to_string(d));
+  const std::string ours = (mine.size() == 1 ? "the daemon listens on " : "the daemon listens on domains ") +
+                           join(joined, ", ");
+  if (!heard) return;
+  char secs[16];
+  std::snprintf(secs, sizeof secs, "%g", listened_s);
+  if (heard->listened.empty()) {
+    r.add(Verdict::info, "domains", "could not listen on any domain's discovery port here (UDP 7400 + 250 d is "
+                                    "taken): other domains are not checked");
+    return;
+  }
+  std::map<int, std::vector<const spdp::Announcement*>> others;
+  for (const auto& a : heard->participants)
+    if (!mine.count(a.domain)) others[a.domain].push_back(&a);
+  if (others.empty()) {
+    r.add(Verdict::ok, "domains", "nothing else announces itself here on any of the " +
+                                      std::to_string(heard->listened.size()) + " domains' discovery ports (listened " +
+                                      secs + " s)");
+    return;
+  }
+  for (const auto& [domain, who_there] : others) {
+    bool fast_dds = false;
+    std::vector<std::string> names;
+    for (const auto* a : who_there) {
+      fast_dds = fast_dds || a->vendor_id == "01.0f";
+      if (names.size() == 4) {
+        names.push_back("and " + std::to_string(who_there.size() - 4) + " more");
+        break;
+      }
+      std::string n = a->name.empty() ? a->guid_prefix : "'" + a->name + "'";
+      if (!a->addresses.empty()) n += " at " + join(a->addresses, ", ");
+      n += " (" + std::string(a->vendor_id == "01.0f" ? "Fast DDS" : a->vendor_id == "01.10" ? "Cyclone DDS"
+                                                                                            : "vendor " + a->vendor_id) +
+           ")";
+      names.push_back(n);
+    }
+    const std::string d = std::to_string(domain);
+    const std::string count = who_there.size() == 1 ? "announces itself" : "announce themselves";
+    if (fast_dds)
+      r.add(Verdict::warn, "domains",
+            "on domain " + d + " " + join(names, ", ") + " " + count + "; " + ours +
+                ". realdds camera servers (and librealsense) run on Fast DDS: if the missing camera is there, add "
+                "--domain " + d + " (\"domains\" in the config) or set the camera to the daemon's domain");
+    else
+      r.add(Verdict::info, "domains", "on domain " + d + " " + join(names, ", ") + " " + count + "; " + ours +
+                                          " (not Fast DDS, so not a realdds camera server)");
+  }
+}
+
 void check_domains(Report& r, const std::vector<rsdiscovery::DomainStatus>& domains) {
   std::vector<std::string> joined;
   bool zero = false;
@@ -204,7 +275,7 @@ void check_domains(Report& r, const std::vector<rsdiscovery::DomainStatus>& doma
     }
   }
   r.add(Verdict::ok, "domains", "the daemon listens on DDS domain" + std::string(domains.size() == 1 ? " " : "s ") +
-                                    join(joined, ", ") + "; it hears no other domain");
+                                    join(joined, ", "));
   if (!zero)
     r.add(Verdict::info, "domains", "domain 0 is not among them: cameras and librealsense use domain 0 unless "
                                     "configured otherwise (add it with --domain 0, or \"domains\" in the config)");
@@ -235,6 +306,10 @@ void check_participants(Report& r, const std::vector<rsdiscovery::Participant>& 
             who(p) + " is a realdds server whose cameras matched but never arrived: its device-info does not "
                      "get through (a firewall or an MTU problem on the path), or the server is stuck");
   }
+  // Gone having exchanged nothing, within about its lease of being heard: its first
+  // announcement got through and nothing after. A program that ran briefly and ended
+  // (librealsense's query_devices(), a camera server stopped) exchanged its endpoints
+  // first: the daemon keeps the most it had (`endpoints` of a gone participant).
   for (const auto& p : all) {
     if (p.state != "gone" || p.endpoints != 0 || p.vendor != "fast-dds") continue;
     const double life = seconds_between(p.first_seen, p.last_seen);
@@ -273,25 +348,33 @@ void check_participants(Report& r, const std::vector<rsdiscovery::Participant>& 
           key.substr(key.find('/') + 1) + " is announced by " + std::to_string(servers_of.size()) +
               " servers: " + join(names, " and ") + "; give each camera its own topic-root (its serial)");
   }
-  // Addresses no one on this network can reach.
-  std::set<std::string> said;
+  // Addresses no one on this network can reach: a `warn` when the participant has
+  // no other (its cameras are out of reach), `info` beside a routable one.
   for (const auto& p : all) {
     if (p.state != "alive") continue;
+    std::vector<std::string> unreachable;
+    bool routable = false;
+    std::string why;
     for (const auto& a : p.addresses) {
       const auto v4 = ipv4(a);
-      if (!v4 || said.count(a)) continue;
-      if (link_local(*v4) || a.rfind("fe80:", 0) == 0) {
-        said.insert(a);
-        r.add(Verdict::warn, "addresses",
-              who(p) + " has a link-local address: it got no address from DHCP; give it a static address or a "
-                       "DHCP server on its network");
+      if (!v4) continue;
+      if (link_local(*v4)) {
+        unreachable.push_back(a);
+        why = "has a link-local address (" + a + "): it got no address from DHCP; give it a static address or a "
+              "DHCP server on its network";
       } else if (container_bridge(*v4)) {
-        said.insert(a);
-        r.add(Verdict::warn, "addresses",
-              who(p) + " is on a container bridge: run its container with --network host, or list its address "
-                       "as a unicast peer in cyclonedds-config");
+        unreachable.push_back(a);
+        why = "is on a container bridge (" + a + "): run its container with --network host, or list its address "
+              "as a unicast peer in cyclonedds-config";
+      } else if (v4->s_addr != 0 && (ntohl(v4->s_addr) >> 24) != 127) {
+        routable = true;
       }
     }
+    if (unreachable.empty()) continue;
+    if (routable)
+      r.add(Verdict::info, "addresses", who(p) + " " + why + " (it is reached by its other address)");
+    else
+      r.add(Verdict::warn, "addresses", who(p) + " " + why);
   }
 }
 
@@ -313,34 +396,49 @@ void check_host_network(Report& r, const std::vector<rsdiscovery::Participant>& 
               "'), or list the cameras as unicast peers in cyclonedds-config");
   else
     r.add(Verdict::ok, "multicast", "discovery multicast (239.255.0.1) leaves by " + route);
+  // An interface without multicast (a VPN's tun0) explains nothing by itself: only a
+  // camera behind it would be missed.
   for (const auto* i : usable)
     if (!i->multicast)
-      r.add(Verdict::warn, "multicast", i->name + " (" + text_of(i->address) +
+      r.add(Verdict::info, "multicast", i->name + " (" + text_of(i->address) +
                                             ") does not do multicast: cameras behind it need unicast peers");
-  // Which of this host's networks the participants are on, against the one
-  // discovery multicast leaves by (Cyclone's pick follows the same rule).
-  std::map<std::string, std::size_t> on;  // interface name -> participants
+  // Participants none of whose addresses is on the network discovery multicast
+  // leaves by, counted per participant (a server on two networks, or a host with
+  // docker0, announces every address: on the route's network too, it is fine),
+  // by the interface whose network they are on. They are heard, so this explains
+  // no missing camera by itself: `info`.
+  const Interface* route_itf = nullptr;
+  for (const auto* i : usable)
+    if (i->name == route) route_itf = i;
+  if (!route_itf) return;
+  std::map<std::string, std::size_t> elsewhere;  // interface name -> participants only on its network
   for (const auto& p : all) {
     if (p.state != "alive") continue;
+    bool on_route = false;
+    std::set<std::string> on;
     for (const auto& a : p.addresses)
-      if (const auto v4 = ipv4(a))
+      if (const auto v4 = ipv4(a)) {
+        if (same_subnet(*route_itf, *v4)) on_route = true;
         for (const auto* i : usable)
-          if (same_subnet(*i, *v4)) ++on[i->name];
+          if (i != route_itf && same_subnet(*i, *v4)) on.insert(i->name);
+      }
+    if (!on_route)
+      for (const auto& name : on) ++elsewhere[name];
   }
-  for (const auto& [name, n] : on)
-    if (!route.empty() && name != route)
-      r.add(Verdict::warn, "interface",
-            std::to_string(n) + " participant" + (n == 1 ? " is" : "s are") + " on " + name +
-                "'s network, but discovery multicast leaves by " + route +
-                ": if cameras are missing, set NetworkInterface " + name + " in cyclonedds-config");
+  for (const auto& [name, n] : elsewhere)
+    r.add(Verdict::info, "interface",
+          std::to_string(n) + " participant" + (n == 1 ? " is" : "s are") + " on " + name +
+              "'s network only, but discovery multicast leaves by " + route +
+              ": if cameras there are missing, set NetworkInterface " + name + " in cyclonedds-config");
 }
 
 void check_devices(Report& r, const std::vector<rsdiscovery::Device>& devices, const rsdiscovery::Health& health) {
   for (const auto& d : devices) {
+    // Listed cameras: what is said of them explains no missing camera.
     for (const auto& w : d.warnings)
-      r.add(Verdict::warn, "usb", (d.name.empty() ? d.id : d.name) + " " + d.serial + ": " + w);
+      r.add(Verdict::info, "usb", (d.name.empty() ? d.id : d.name) + " " + d.serial + ": " + w);
     if (d.recovery)
-      r.add(Verdict::warn, "camera", (d.name.empty() ? d.id : d.name) + " " + d.serial +
+      r.add(Verdict::info, "camera", (d.name.empty() ? d.id : d.name) + " " + d.serial +
                                          " runs its recovery firmware: update its firmware");
   }
   const auto doc = nlohmann::json::parse(health.json, nullptr, false);
@@ -354,16 +452,110 @@ void check_devices(Report& r, const std::vector<rsdiscovery::Device>& devices, c
     r.add(Verdict::ok, "usb", "the daemon watches USB (" + state + ")");
 }
 
+// ---- when the daemon cannot be asked --------------------------------------------------
+
+std::string user_name(uid_t uid) {
+  if (const passwd* p = getpwuid(uid)) return p->pw_name;
+  return std::to_string(uid);
+}
+
+std::string group_name(gid_t gid) {
+  if (const group* g = getgrgid(gid)) return g->gr_name;
+  return std::to_string(gid);
+}
+
+// The group that opens `path` to this user: that of the first directory on the way
+// closed to this user, else the socket's own.
+std::optional<std::string> group_to_join(const std::string& path) {
+  struct stat st {};
+  for (auto slash = path.find('/', 1); slash != std::string::npos; slash = path.find('/', slash + 1)) {
+    const std::string dir = path.substr(0, slash);
+    if (::access(dir.c_str(), X_OK) != 0) return ::stat(dir.c_str(), &st) == 0 ? std::optional(group_name(st.st_gid))
+                                                                               : std::nullopt;
+  }
+  if (::stat(path.c_str(), &st) == 0) return group_name(st.st_gid);
+  return std::nullopt;
+}
+
+// The daemon's HTTP address, as a client on this host reaches it: the system
+// configuration's "http" (when this user may read it), else the default; "" when
+// it is off.
+std::string local_http_endpoint() {
+  std::string http = "127.0.0.1:8035";
+  std::ifstream file("/etc/rs-discoveryd/config.json");
+  if (file) {
+    const auto doc = nlohmann::json::parse(file, nullptr, false);
+    if (doc.is_object() && doc.contains("http") && doc["http"].is_string()) http = doc["http"].get<std::string>();
+  }
+  if (http == "off" || http.empty()) return "";
+  if (http.rfind("0.0.0.0:", 0) == 0) http = "127.0.0.1:" + http.substr(8);
+  if (http.rfind("[::]:", 0) == 0) http = "[::1]:" + http.substr(5);
+  return "http://" + http;
+}
+
+bool answers(const std::string& endpoint) {
+  if (endpoint.empty()) return false;
+  try {
+    rsdiscovery::ClientOptions options;
+    options.connect_timeout = std::chrono::milliseconds(1000);
+    options.request_timeout = std::chrono::milliseconds(2000);
+    options.complete_timeout = std::chrono::milliseconds(0);
+    rsdiscovery::Client(endpoint, options).health();
+    return true;
+  } catch (const rsdiscovery::Error&) {
+    return false;
+  }
+}
+
+// What to do when the daemon could not be asked: by the cause (issue 23: a user
+// without rights on the socket was told to start a daemon that runs).
+std::string unreachable_hint(const rsdiscovery::Error& e, const rsdiscovery::Endpoint& endpoint) {
+  const std::string http = endpoint.kind == rsdiscovery::Endpoint::Kind::unix_socket ? local_http_endpoint() : "";
+  const bool http_answers = answers(http);
+  const std::string use_http =
+      http.empty() ? std::string()
+                   : "ask over HTTP, which every user of this host may: 'rs-discover --endpoint " + http + " doctor'" +
+                         (http_answers ? " (it answers there)"
+                                       : " (the address is the daemon's \"http\" setting; it does not answer at " +
+                                             http + " now)");
+  if (e.code() == rsdiscovery::ErrorCode::permission_denied && endpoint.kind == rsdiscovery::Endpoint::Kind::unix_socket) {
+    // Said here whole, not after the library's message (which names the group too).
+    const std::string me = user_name(geteuid());
+    std::string out = "permission denied on " + endpoint.path;
+    if (struct stat st {}; ::stat(endpoint.path.c_str(), &st) == 0) {
+      char mode[8];
+      std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+      out += " (owned by " + user_name(st.st_uid) + ":" + group_name(st.st_gid) + ", mode " + mode + ")";
+    }
+    out += ": the daemon runs, but this user (" + me + ") may not use its socket";
+    if (const auto g = group_to_join(endpoint.path))
+      out += ": join group " + *g + " ('sudo usermod -aG " + *g + " " + me + "', then log in again)" +
+             (use_http.empty() ? "" : ", or " + use_http);
+    else if (!use_http.empty())
+      out += ": " + use_http;
+    return out;
+  }
+  if (e.code() == rsdiscovery::ErrorCode::not_running && http_answers)
+    return "the daemon is not on this socket, but it answers over HTTP: " + use_http;
+  if (e.code() == rsdiscovery::ErrorCode::not_running)
+    return "start it: 'systemctl start rs-discoveryd', or see 'rs-discoveryd --help'";
+  return "";
+}
+
 int run(const ParsedArgs& args) {
   if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
+  const double listen_s = args.get_seconds("listen", 3);
+  if (listen_s > 60) throw UsageError("--listen wants at most 60 seconds");
   Report report;
   auto client = make_client(args);
   rsdiscovery::Health health;
   try {
     health = client.health();
   } catch (const rsdiscovery::Error& e) {
-    report.add(Verdict::fail, "daemon", std::string(e.what()) +
-                                            " (start it: 'systemctl start rs-discoveryd', or see 'rs-discoveryd --help')");
+    const std::string hint = unreachable_hint(e, client.endpoint());
+    const bool whole = e.code() == rsdiscovery::ErrorCode::permission_denied &&
+                       client.endpoint().kind == rsdiscovery::Endpoint::Kind::unix_socket;
+    report.add(Verdict::fail, "daemon", whole ? hint : std::string(e.what()) + (hint.empty() ? "" : "; " + hint));
     report.print(args.has("json"));
     return e.code() == rsdiscovery::ErrorCode::not_running || e.code() == rsdiscovery::ErrorCode::permission_denied
                ? kUnreachable
@@ -372,9 +564,14 @@ int run(const ParsedArgs& args) {
   report.add(Verdict::ok, "daemon", "rs-discoveryd " + health.version + " answers at " + client.endpoint().to_string() +
                                         (health.complete ? "" : " (its first discovery still runs: look again in a few seconds)"));
   const auto domains = client.domains();
+  // Listened to before the daemon's participants are read, so that whoever is
+  // heard here is in the daemon's answer too.
+  std::optional<spdp::Heard> heard;
+  if (listen_s > 0) heard = spdp::listen(std::chrono::milliseconds(static_cast<long>(listen_s * 1000)));
   const auto participants = client.participants();
   const auto devices = client.list_devices();
   check_domains(report, domains);
+  check_other_domains(report, domains, heard, listen_s);
   check_participants(report, participants, domains);
   if (endpoint_is_local(client.endpoint().to_string()))
     check_host_network(report, participants);
@@ -394,14 +591,17 @@ const Command kDoctorCommand = {
     "doctor [--json]",
     "Check the usual reasons a camera is not listed, and say what to do, one line each:\n"
     "the DDS domains the daemon joined (cameras use 0 unless configured otherwise), who\n"
-    "it hears on them, participants heard but not answering (a firewall on the domain's\n"
-    "UDP ports), realdds servers whose cameras never arrive, a topic-root announced by\n"
-    "two servers, link-local or container-bridge addresses, and, when the daemon runs\n"
-    "on this host, its multicast route and which network the participants are on; USB\n"
-    "cameras on a USB 2 link and USB the daemon cannot watch.\n"
-    "Exit status 0 when nothing is wrong, 1 when a line says 'warn' or 'fail'.",
+    "announces itself on the other domains (heard here on every domain's discovery port\n"
+    "for --listen seconds), who it hears on its own, participants heard but not answering\n"
+    "(a firewall on the domain's UDP ports), realdds servers whose cameras never arrive,\n"
+    "a topic-root announced by two servers, link-local or container-bridge addresses,\n"
+    "and, when the daemon runs on this host, its multicast route and which network the\n"
+    "participants are on; USB cameras on a USB 2 link and USB the daemon cannot watch.\n"
+    "Exit status 0 when nothing found explains a missing camera, 1 when a line says\n"
+    "'warn' or 'fail' (a likely cause); 'info' lines are worth knowing and explain none.",
     {
         {"json", 'j', nullptr, "print {\"findings\": [{\"verdict\", \"topic\", \"text\"}, ...]}"},
+        {"listen", 0, "S", "listen S seconds for participants on other domains (default 3; 0: do not)"},
     },
     run,
 };

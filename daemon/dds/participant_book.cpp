@@ -31,6 +31,11 @@ void ParticipantBook::alive(ParticipantSighting s, const std::string& now) {
 }
 
 void ParticipantBook::gone(const std::string& guid, const std::string& now) {
+  std::size_t most = 0;
+  if (auto m = most_endpoints_.find(guid); m != most_endpoints_.end()) {
+    most = m->second;
+    most_endpoints_.erase(m);
+  }
   const auto it = alive_.find(guid);
   if (it == alive_.end()) {
     if (unlisted_ > 0) --unlisted_;  // one of those never listed
@@ -40,9 +45,9 @@ void ParticipantBook::gone(const std::string& guid, const std::string& now) {
   alive_.erase(it);
   p.state = model::ParticipantState::gone;
   p.last_seen = now;
-  // What it had exchanged with the daemon when it went (the doctor's "heard once,
-  // never answered" case has none).
-  if (auto e = endpoints_.find(guid); e != endpoints_.end()) p.endpoints = e->second.size();
+  // The most it had exchanged with the daemon (the doctor's "heard once, never
+  // answered" case has none; a program that ended cleanly took its endpoints first).
+  p.endpoints = most;
   gone_.push_back(std::move(p));
   while (gone_.size() > max_gone_) gone_.pop_front();
   if (auto e = endpoints_.find(guid); e != endpoints_.end()) {
@@ -53,7 +58,10 @@ void ParticipantBook::gone(const std::string& guid, const std::string& now) {
 
 void ParticipantBook::endpoint_alive(const std::string& participant, const std::string& endpoint) {
   if (endpoint_count_ >= kMaxEndpoints) return;
-  if (endpoints_[participant].insert(endpoint).second) ++endpoint_count_;
+  auto& set = endpoints_[participant];
+  if (set.insert(endpoint).second) ++endpoint_count_;
+  auto& most = most_endpoints_[participant];
+  most = std::max(most, set.size());
 }
 
 void ParticipantBook::endpoint_gone(const std::string& participant, const std::string& endpoint) {
@@ -68,6 +76,7 @@ void ParticipantBook::participant_rebuilt() {
   unlisted_ = 0;
   endpoints_.clear();
   endpoint_count_ = 0;
+  most_endpoints_.clear();
 }
 
 std::vector<model::Participant> ParticipantBook::list(int domain, const std::string& now,

@@ -72,6 +72,11 @@ class ParticipantBook {
   // making endpoints without end is counted up to the bound only).
   std::map<std::string, std::set<std::string>> endpoints_;
   std::size_t endpoint_count_ = 0;
+  // The most endpoints each participant had at once: a program that ends cleanly
+  // disposes its endpoints before its participant, so by gone() it has none left,
+  // like one whose unicast never got through; this keeps them apart for the doctor.
+  // An entry per participant with endpoints_ (bounded with it), dropped at gone().
+  std::map<std::string, std::size_t> most_endpoints_;
   static constexpr std::size_t kMaxEndpoints = 65536;
 };
 

@@ -2,12 +2,21 @@
 network namespaces and nftables: a realdds server on another "host" behind a firewall
 that lets discovery multicast in but drops the unicast exchange; one whose first
 announcement gets through and nothing after; a host firewall dropping UDP from the
-camera's network (those three with nftables); a host with no multicast route; cameras on another
-DDS domain. Each time the doctor must name the cause (and exit 1), and on
-the healthy network say nothing is wrong (exit 0)."""
+camera's network (those three with nftables); a host with no multicast route; a camera
+server on another DDS domain (found by listening to every domain's discovery port).
+Each time the doctor must name the cause (and exit 1). On healthy networks (issue 23) it
+must say nothing is wrong (exit 0): with short-lived DDS programs coming and going
+(librealsense's own query_devices(), a camera server that ran 4 s), with multi-homed
+servers and hosts, with a link-local address beside a routable one; and as a user who
+may not use the socket it names the group to join or the HTTP endpoint, not "start it"."""
+import grp
 import json
 import os
+import shutil
 import subprocess
+import sys
+import tempfile
+import time
 
 import pytest
 from conftest import device_info, wait_for
@@ -114,15 +123,28 @@ def test_no_multicast_route(free_domain, daemon, realdds_server, net):
     assert said(findings, "warn", "multicast", "no route for multicast 239.255.0.1", "ip route add 224.0.0.0/4 dev rsdv0")
 
 
-def test_cameras_on_another_domain(domains, daemon, realdds_server):
+def test_cameras_on_another_domain(domains, daemon, realdds_server, net):
+    # The most common reason a camera is missing: its server is on another domain.
+    # The doctor listens to every domain's discovery port and names who is there.
     mine, theirs = domains.take(), domains.take()
-    realdds_server(theirs, [device_info(5)], name="elsewhere-server")
-    d = daemon([mine])
-    status, findings = doctor(d)
-    assert status == 1
+    realdds_server(theirs, [device_info(5)], name="elsewhere-server", prefix=net.prefix(net.camera))
+    d = daemon([mine], http=False, prefix=net.prefix(net.host))
+    status, findings = doctor(d, net)
+    assert status == 1, findings
     assert said(findings, "warn", "network", f"nobody else is heard on domain {mine}", "another domain")
+    assert said(findings, "warn", "domains", f"on domain {theirs}", "'elsewhere-server'", net.camera_ip,
+                f"the daemon listens on {mine}", f"--domain {theirs}"), findings
     assert said(findings, "ok", "domains", f"DDS domain {mine} (running)")
     assert said(findings, "info", "domains", "domain 0 is not among them")
+
+
+def test_a_server_on_the_daemons_domain_is_not_named_as_elsewhere(free_domain, daemon, realdds_server, net):
+    realdds_server(free_domain, [device_info(9)], name="right-here-server", prefix=net.prefix(net.camera))
+    d = daemon([free_domain], http=False, prefix=net.prefix(net.host))
+    wait_for(lambda: len(d.devices()) == 1, 20, what="the camera")
+    status, findings = doctor(d, net)
+    assert status == 0, findings
+    assert said(findings, "ok", "domains", "nothing else announces itself", "233 domains"), findings
 
 
 def test_one_topic_root_from_two_servers(free_domain, daemon, realdds_server):
@@ -138,14 +160,103 @@ def test_one_topic_root_from_two_servers(free_domain, daemon, realdds_server):
     wait_for(blamed, 20, interval=0.5, what="the doctor naming the two servers")
 
 
-def test_a_link_local_address_is_named(free_domain, daemon, realdds_server, net):
-    # The camera's host got no address from DHCP: it has only a link-local one beside
-    # (here besides the test network's, so the daemon still hears it).
+def test_a_link_local_address_beside_a_routable_one_is_only_info(free_domain, daemon, realdds_server, net):
+    # The camera's host has a link-local address besides the test network's: the daemon
+    # hears it by the routable one, so it explains no missing camera (issue 23).
     net.exec(net.camera, "ip", "addr", "add", "169.254.23.2/16", "dev", "rsdv1")
     realdds_server(free_domain, [device_info(8)], name="autoip-server", prefix=net.prefix(net.camera))
     d = daemon([free_domain], http=False, prefix=net.prefix(net.host))
+    wait_for(lambda: len(d.devices()) == 1, 20, what="the camera")
 
     def named():
         status, findings = doctor(d, net)
-        return status == 1 and said(findings, "warn", "addresses", "'autoip-server'", "link-local", "DHCP")
-    wait_for(named, 20, interval=0.5, what="the doctor naming the link-local address")
+        return status == 0 and said(findings, "info", "addresses", "'autoip-server'", "link-local", "DHCP")
+    wait_for(named, 20, interval=0.5, what="the doctor naming the link-local address as info")
+
+
+def not_ok(findings):
+    return [f for f in findings if f["verdict"] in ("warn", "fail")]
+
+
+LIBREALSENSE_QUERY = ("import sys, pyrealsense2 as rs; "
+                      "rs.context({'dds': {'enabled': True, 'domain': int(sys.argv[1])}}).query_devices()")
+
+
+def test_short_lived_dds_programs_raise_no_alarm(free_domain, daemon, realdds_server, net):
+    # librealsense's own query_devices() (a participant for about 3 s, its lease) and a
+    # camera server that ran 4 s with its camera listed both leave cleanly: the
+    # doctor must not take them for participants a firewall cut off (issue 23).
+    realdds_server(free_domain, [device_info(10)], name="steady-server", prefix=net.prefix(net.camera))
+    d = daemon([free_domain], http=False, prefix=net.prefix(net.host))
+    wait_for(lambda: len(d.devices()) == 1, 20, what="the steady camera")
+
+    def gone(name):
+        return [p for p in d.get_json("/v1/participants?state=gone")["participants"] if p["name"] == name]
+
+    subprocess.run(net.prefix(net.camera) + [sys.executable, "-c", LIBREALSENSE_QUERY, str(free_domain)],
+                   check=True, timeout=60, capture_output=True)
+    brief_camera = device_info(11)
+    brief = realdds_server(free_domain, [brief_camera], name="brief-server", prefix=net.prefix(net.camera))
+    started = time.monotonic()
+    wait_for(lambda: brief_camera["serial"] in [x["serial"] for x in d.devices()], 20, what="the brief camera")
+    time.sleep(max(0.0, 4.0 - (time.monotonic() - started)))  # it ran 4 s, as in the issue
+    brief.quit()
+    wait_for(lambda: gone("brief-server"), 20, what="the brief server gone")
+    query = [p for p in d.get_json("/v1/participants?state=gone")["participants"]
+             if p["name"] not in ("brief-server",) and p["vendor"] == "fast-dds"]
+    assert query, "librealsense's query participant was heard and went"
+    status, findings = doctor(d, net)
+    assert status == 0 and not not_ok(findings), findings
+    assert said(findings, "ok", "network", "1 participant heard, 1 announcing")
+
+
+def test_multi_homed_servers_and_hosts_are_counted_per_participant(free_domain, daemon, realdds_server, net):
+    # A second network between the two hosts: the server announces both addresses,
+    # and it is on the network discovery multicast leaves by (rsdv0) as well. And a
+    # host interface without multicast (as a VPN's tun0): nothing a camera needs.
+    n = net.host_ip.split(".")[2]
+    net.exec(net.host, "ip", "link", "add", "rsdw0", "type", "veth", "peer", "name", "rsdw1", "netns", net.camera)
+    for ns, dev, ip in ((net.host, "rsdw0", f"10.232.{n}.1/24"), (net.camera, "rsdw1", f"10.232.{n}.2/24")):
+        net.exec(ns, "ip", "addr", "add", ip, "dev", dev)
+        net.exec(ns, "ip", "link", "set", dev, "up")
+    # Fast DDS takes the interfaces that are up (with carrier) when it starts.
+    wait_for(lambda: " UP " in net.exec(net.camera, "ip", "-br", "link", "show", "rsdw1"), 10, what="rsdw1 up")
+    net.exec(net.host, "ip", "link", "add", "rsdt0", "type", "veth", "peer", "name", "rsdt1")
+    net.exec(net.host, "ip", "addr", "add", f"10.233.{n}.1/24", "dev", "rsdt0")
+    for dev in ("rsdt0", "rsdt1"):
+        net.exec(net.host, "ip", "link", "set", dev, "up", "multicast", "off")
+    realdds_server(free_domain, [device_info(12)], name="two-homed-server", prefix=net.prefix(net.camera))
+    realdds_server(free_domain, [device_info(13)], name="other-server", prefix=net.prefix(net.camera))
+    d = daemon([free_domain], http=False, prefix=net.prefix(net.host))
+    wait_for(lambda: len(d.devices()) == 2, 20, what="both cameras")
+
+    def both_addresses():
+        ps = [p for p in d.get_json("/v1/participants")["participants"] if p["name"] == "two-homed-server"]
+        return ps and {net.camera_ip, f"10.232.{n}.2"} <= set(ps[0]["addresses"])
+    wait_for(both_addresses, 10, what="the server announcing both addresses")
+    status, findings = doctor(d, net)
+    assert status == 0 and not not_ok(findings), findings
+    assert not said(findings, "info", "interface", "rsdw0"), findings
+    assert said(findings, "info", "multicast", "rsdt0", "does not do multicast")
+
+
+def test_a_user_without_socket_rights_is_told_the_group_or_http(daemon, free_domain, tmp_path):
+    # The daemon runs; `nobody` may not use its socket (mode 0660, group `users`).
+    # The doctor must say so and what to do, not tell them to start it (issue 23).
+    run_dir = tempfile.mkdtemp(prefix="rsd-doctor-")
+    os.chmod(run_dir, 0o755)
+    try:
+        sock = os.path.join(run_dir, "api.sock")
+        d = daemon([free_domain], socket=sock)
+        os.chown(sock, 0, grp.getgrnam("users").gr_gid)
+        r = subprocess.run(["setpriv", "--reuid=nobody", "--regid=nogroup", "--clear-groups", CLI, "--endpoint",
+                            "unix:" + sock, "doctor", "--json"], capture_output=True, text=True, timeout=30)
+        assert r.returncode == 3, (r.returncode, r.stdout, r.stderr)
+        findings = json.loads(r.stdout)["findings"]
+        line = said(findings, "fail", "daemon", "permission denied", "join group users", "usermod -aG users nobody",
+                    "--endpoint http://")
+        assert line, findings
+        assert "start it" not in line[0]["text"]
+        assert d.healthy()
+    finally:
+        shutil.rmtree(run_dir, ignore_errors=True)

@@ -146,7 +146,32 @@ TEST(ParticipantBook, EndpointsAreCountedPerParticipantAndKeptWhenItGoes) {
   list = book.list(0, "T4", {});
   const auto gone = std::find_if(list.begin(), list.end(), [&](const auto& x) { return x.guid == p.guid; });
   ASSERT_NE(gone, list.end());
-  EXPECT_EQ(gone->endpoints, 1u);  // what it had when it went
+  EXPECT_EQ(gone->endpoints, 2u);  // the most it had
+}
+
+TEST(ParticipantBook, OneThatEndedCleanlyKeepsWhatItHadExchanged) {
+  // A program that ends cleanly (librealsense's query_devices(), a camera server
+  // stopping) disposes its endpoints before its participant: gone, it still shows
+  // it exchanged something, unlike one whose unicast never got through.
+  ParticipantBook book;
+  const auto p = fast_dds(1), walled = fast_dds(2);
+  const std::string prefix = p.guid.substr(0, 27);
+  book.alive(p, "T1");
+  book.alive(walled, "T1");
+  book.endpoint_alive(p.guid, prefix + "00000503");
+  book.endpoint_alive(p.guid, prefix + "00000504");
+  book.endpoint_gone(p.guid, prefix + "00000503");
+  book.endpoint_gone(p.guid, prefix + "00000504");
+  book.gone(p.guid, "T2");
+  book.gone(walled.guid, "T2");
+  for (const auto& x : book.list(0, "T3", {})) EXPECT_EQ(x.endpoints, x.guid == p.guid ? 2u : 0u) << x.guid;
+  // Back after a while: it starts from what it exchanges now.
+  book.alive(p, "T4");
+  for (const auto& x : book.list(0, "T5", {})) {
+    if (x.guid == p.guid) {
+      EXPECT_EQ(x.endpoints, 0u);
+    }
+  }
 }
 
 TEST(DomainBookPublishers, CountsWritersDevicesAndSilence) {
