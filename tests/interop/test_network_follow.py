@@ -247,3 +247,30 @@ def test_explicit_interface_not_there_yet(free_domain, daemon, realdds_server, l
     listed_after(d, dds_id(free_domain, cam_b), since, "explicit interface appears")
     assert list(interfaces(d)) == ["rsdB"]
     assert dds_id(free_domain, cam_a) not in d.device_ids()
+
+
+def test_a_flapping_address_is_backed_off(free_domain, daemon, realdds_server, lab):
+    # A bad DHCP server: the host's address changes every half second for 10 s.
+    a = lab.camera_ns("a")
+    lab.plug(a, 0, "rsdA")
+    camera = device_info(1)
+    realdds_server(free_domain, [camera], prefix=lab.prefix(a))
+    d = daemon([free_domain], http=False, prefix=lab.prefix(lab.host))
+    cam_id = dds_id(free_domain, camera)
+    wait_for(lambda: d.device_ids() == [cam_id], timeout=20, what="the camera")
+    flaps, current = 0, None
+    end = time.monotonic() + 10
+    while time.monotonic() < end:  # making the flaps, not waiting for anything
+        address = f"{lab.subnet(0)}.{5 + flaps % 2}/24"
+        lab.exec(lab.host, "ip", "addr", "add", address, "dev", "rsdA")
+        if current:
+            lab.exec(lab.host, "ip", "addr", "del", current, "dev", "rsdA")
+        current = address
+        flaps += 1
+        time.sleep(0.5)
+    changes = d.get_json("/v1/domains")["domains"][0]["network-changes"]
+    print(f"{flaps} address changes in 10 s: {changes} refreshes")
+    # Spaced 1, 2, 4, 8 s apart: a handful, not one per change.
+    assert 1 <= changes <= 6, changes
+    # Once it settles, the camera is there.
+    wait_for(lambda: cam_id in d.device_ids(), timeout=40, what="the camera after the flapping")
