@@ -22,6 +22,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <fstream>
 #include <map>
 #include <set>
@@ -432,6 +433,53 @@ void check_host_network(Report& r, const std::vector<rsdiscovery::Participant>& 
               ": if cameras there are missing, set NetworkInterface " + name + " in cyclonedds-config");
 }
 
+// The networks the daemon's domains are on (/v1/domains "interfaces", which it
+// follows as the host's network changes): loopback only means the host had no
+// usable interface (up, carrier, multicast, IPv4) when the daemon last looked; a
+// participant heard on a domain of the daemon's from a network of this host that
+// the daemon left out (--interface, exclude-interfaces) is one it cannot reach.
+void check_networks(Report& r, const std::vector<rsdiscovery::DomainStatus>& domains,
+                    const std::optional<spdp::Heard>& heard) {
+  const auto host = ipv4_interfaces();
+  for (const auto& d : domains) {
+    const auto doc = nlohmann::json::parse(d.json, nullptr, false);
+    if (!doc.is_object() || !doc.contains("interfaces") || !doc["interfaces"].is_array()) continue;
+    std::set<std::string> joined;
+    for (const auto& i : doc["interfaces"])
+      if (i.is_object() && i.value("name", std::string()) != "") joined.insert(i.value("name", std::string()));
+    if (joined.empty()) continue;  // the Cyclone DDS configuration names them: the user's choice
+    const std::string dom = "domain " + std::to_string(d.domain);
+    const bool loopback_only = std::all_of(joined.begin(), joined.end(), [&](const std::string& name) {
+      return std::any_of(host.begin(), host.end(), [&](const Interface& i) { return i.name == name && i.loopback; });
+    });
+    if (loopback_only) {
+      r.add(Verdict::warn, "network",
+            dom + " is on loopback only: the host has no usable network interface yet (up, with carrier, "
+                  "multicast and an IPv4 address; or none that --interface names). The daemon joins one as soon as "
+                  "it appears; until then only cameras on this host are found");
+    }
+    if (!heard) continue;
+    std::map<std::string, std::vector<std::string>> left_out;  // interface -> who is only on its network
+    for (const auto& a : heard->participants) {
+      if (a.domain != d.domain || a.addresses.empty()) continue;
+      std::set<std::string> nets;
+      for (const auto& text : a.addresses)
+        if (const auto addr = ipv4(text))
+          for (const auto& i : host)
+            if (!i.loopback && same_subnet(i, *addr)) nets.insert(i.name);
+      if (nets.empty() || std::any_of(nets.begin(), nets.end(), [&](const auto& n) { return joined.count(n); }))
+        continue;  // not on a network of this host, or also on one the daemon is on
+      left_out[*nets.begin()].push_back((a.name.empty() ? a.guid_prefix : "'" + a.name + "'") + " at " +
+                                        join(a.addresses, ", "));
+    }
+    for (const auto& [itf, who_there] : left_out)
+      r.add(Verdict::warn, "network",
+            "on " + dom + " " + join(who_there, ", ") + (who_there.size() == 1 ? " is" : " are") + " on the network of " +
+                itf + ", which the daemon is not on (it is on " + join({joined.begin(), joined.end()}, ", ") +
+                "): add --interface " + itf + " (\"interfaces\" in the config), or take it out of exclude-interfaces");
+  }
+}
+
 void check_devices(Report& r, const std::vector<rsdiscovery::Device>& devices, const rsdiscovery::Health& health) {
   for (const auto& d : devices) {
     // Listed cameras: what is said of them explains no missing camera.
@@ -573,9 +621,10 @@ int run(const ParsedArgs& args) {
   check_domains(report, domains);
   check_other_domains(report, domains, heard, listen_s);
   check_participants(report, participants, domains);
-  if (endpoint_is_local(client.endpoint().to_string()))
+  if (endpoint_is_local(client.endpoint().to_string())) {
     check_host_network(report, participants);
-  else
+    check_networks(report, domains, heard);
+  } else
     report.add(Verdict::info, "interface", "the daemon is on another host: its network is not checked from here");
   check_devices(report, devices, health);
   report.add(Verdict::info, "cameras", std::to_string(devices.size()) + " camera" + (devices.size() == 1 ? "" : "s") +

@@ -10,6 +10,7 @@ table shows (the target, 2 s plus the camera's own discovery, is the bench's and
 the issue note's, never an assertion here).
 """
 import itertools
+import json
 import os
 import subprocess
 import time
@@ -19,6 +20,7 @@ import pytest
 from conftest import EventStream, device_info, wait_for
 from test_realdds import LEASE_S, dds_id
 
+CLI = os.path.join(os.environ.get("RSD_BUILD_DIR", ""), "client", "rs-discover")
 _serial = itertools.count()
 TIMES = []  # (case, seconds from the change to the camera listed)
 
@@ -72,6 +74,8 @@ class Lab:
 
     def address(self, host_dev, k, remove=False):
         self.exec(self.host, "ip", "addr", "del" if remove else "add", f"{self.subnet(k)}.1/24", "dev", host_dev)
+        if not remove:  # as a DHCP lease brings a route with it
+            self.exec(self.host, "ip", "route", "replace", "224.0.0.0/4", "dev", host_dev)
 
     def unplug(self, host_dev):
         self.exec(self.host, "ip", "link", "del", host_dev)
@@ -97,6 +101,14 @@ def print_times():
             print(f"| {case} | {seconds:.2f} s |")
 
 
+def doctor_network(d, lab):
+    """(exit status, the doctor's 'network' findings) run beside the daemon."""
+    r = subprocess.run(lab.prefix(lab.host) + [CLI, "--endpoint", "unix:" + d.socket, "doctor", "--json"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode in (0, 1), (r.returncode, r.stdout, r.stderr)
+    return r.returncode, [f for f in json.loads(r.stdout)["findings"] if f["topic"] == "network"]
+
+
 def interfaces(d):
     return {i["name"]: i["addresses"] for i in d.get_json("/v1/domains")["domains"][0]["interfaces"]}
 
@@ -111,12 +123,16 @@ def test_daemon_started_before_the_network(free_domain, daemon, realdds_server, 
     lab.plug(cams, 0, "rsdA", host_address=False)  # the DHCP lease has not come yet
     d = daemon([free_domain], http=False, prefix=lab.prefix(lab.host))
     assert list(interfaces(d)) == ["lo"]  # nothing else usable yet
+    status, findings = doctor_network(d, lab)
+    assert status == 1 and any("loopback only" in f["text"] for f in findings), findings
     camera = device_info(1)
     realdds_server(free_domain, [camera], prefix=lab.prefix(cams))
     since = time.monotonic()
     lab.address("rsdA", 0)  # the lease
     listed_after(d, dds_id(free_domain, camera), since, "daemon started before the network")
     assert interfaces(d) == {"rsdA": [f"{lab.subnet(0)}.1"]}
+    status, findings = doctor_network(d, lab)
+    assert status == 0 and not [f for f in findings if f["verdict"] in ("warn", "fail")], findings  # healthy
     entry = d.get_json("/v1/domains")["domains"][0]
     assert entry["network-changes"] == 1 and entry["network-changed-at"]
     metrics = d.request("/metrics")[2].decode()
@@ -240,6 +256,9 @@ def test_explicit_interface_not_there_yet(free_domain, daemon, realdds_server, l
     realdds_server(free_domain, [cam_a], name="server-a", prefix=lab.prefix(a))
     d = daemon([free_domain], http=False, prefix=lab.prefix(lab.host), extra=["--interface", "rsdB"])
     assert list(interfaces(d)) == ["lo"]  # rsdA is not named: never joined
+    # The doctor names the server on a network the daemon was told to stay off.
+    status, findings = doctor_network(d, lab)
+    assert status == 1 and any("server-a" in f["text"] and "--interface rsdA" in f["text"] for f in findings), findings
     b = lab.camera_ns("b")
     since = time.monotonic()
     lab.plug(b, 1, "rsdB")  # the named adapter appears
