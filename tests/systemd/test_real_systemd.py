@@ -11,6 +11,7 @@ its own. RSD_SUITE picks the Debian release (default: this host's); RSD_DEBS_DIR
 gives prebuilt packages of this tree (default: built here with packaging/build-deb).
 """
 import json
+import subprocess
 import os
 import re
 import shutil
@@ -286,6 +287,38 @@ def test_status_names_what_is_watched(system):
     # No USB in a container: STATUS= names USB only when it is watched.
     expected = "0 devices on DDS domains 0,3" + (" and USB" if usb in ("hotplug", "polling") else "")
     assert text == expected, (text, usb)
+
+
+def test_follows_the_network_it_runs_on(system):
+    # Issue 21 on this suite's own Cyclone DDS (bookworm 0.10.2, trixie 0.10.5), under
+    # the unit's sandbox: an interface appears with an address (a lease), then the
+    # address goes (renumbered, unplugged): each domain is joined anew on it and
+    # again without it. Deleting a domain whose address had gone once hung for ever
+    # in Cyclone's receive threads. The container's network namespace is entered
+    # from here: the minimal system has no iproute2.
+    c = system
+    ip = ["nsenter", "-t", str(c.pid1), "-n", "ip"]
+
+    def joined():
+        entries = json.loads(curl(c, "/v1/domains", check=True)[1])["domains"]
+        if any(e["state"] != "running" for e in entries):
+            return None
+        return [sorted(i["name"] for i in e["interfaces"]) for e in entries]
+
+    before = wait_for(joined, timeout=30, what="every domain running")
+    subprocess.run(ip + ["link", "add", "rsdn0", "type", "dummy"], check=True)
+    try:
+        subprocess.run(ip + ["link", "set", "rsdn0", "multicast", "on", "up"], check=True)
+        subprocess.run(ip + ["addr", "add", "10.99.0.1/24", "dev", "rsdn0"], check=True)
+        wait_for(lambda: (j := joined()) and all("rsdn0" in names for names in j), timeout=30,
+                 what="every domain joined on the new interface")
+        subprocess.run(ip + ["addr", "del", "10.99.0.1/24", "dev", "rsdn0"], check=True)
+        wait_for(lambda: joined() == before, timeout=30, what="every domain joined anew without it")
+    finally:
+        subprocess.run(ip + ["link", "del", "rsdn0"], check=False)
+    entries = json.loads(curl(c, "/v1/domains", check=True)[1])["domains"]
+    assert all(e["network-changes"] >= 2 for e in entries), entries
+    assert c.run("systemctl", "is-active", SERVICE).stdout.strip() == "active"
 
 
 def test_reload_adds_a_domain_survives_an_invalid_file_and_goes_back(system):
