@@ -12,6 +12,7 @@ the issue note's, never an assertion here).
 import itertools
 import json
 import os
+import signal
 import subprocess
 import time
 
@@ -293,3 +294,22 @@ def test_a_flapping_address_is_backed_off(free_domain, daemon, realdds_server, l
     assert 1 <= changes <= 6, changes
     # Once it settles, the camera is there.
     wait_for(lambda: cam_id in d.device_ids(), timeout=40, what="the camera after the flapping")
+
+
+def test_reload_applies_a_changed_interface_list(free_domain, daemon, realdds_server, lab, tmp_path):
+    a, b = lab.camera_ns("a"), lab.camera_ns("b")
+    lab.plug(a, 0, "rsdA")
+    lab.plug(b, 1, "rsdB")
+    cam_a, cam_b = device_info(1), device_info(2)
+    realdds_server(free_domain, [cam_a], name="server-a", prefix=lab.prefix(a))
+    realdds_server(free_domain, [cam_b], name="server-b", prefix=lab.prefix(b))
+    config = tmp_path / "config.json"
+    config.write_text(json.dumps({"interfaces": ["rsdB"]}))
+    d = daemon([free_domain], http=False, prefix=lab.prefix(lab.host), extra=["--config", str(config)])
+    wait_for(lambda: d.device_ids() == [dds_id(free_domain, cam_b)], timeout=20, what="rsdB's camera alone")
+    assert list(interfaces(d)) == ["rsdB"]
+    config.write_text(json.dumps({"interfaces": ["rsd*"]}))
+    since = time.monotonic()
+    d.proc.send_signal(signal.SIGHUP)
+    listed_after(d, dds_id(free_domain, cam_a), since, "reload widens the interface list")
+    assert sorted(interfaces(d)) == ["rsdA", "rsdB"]
