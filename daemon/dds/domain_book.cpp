@@ -201,9 +201,17 @@ void DomainBook::unindex(const std::string& writer_guid, const std::string& id) 
 }
 
 void DomainBook::remove_device(const std::string& id, const std::string& why) {
-  log::info(prefix() + "device " + id + " removed: " + why);
-  if (const auto dev = devices_.find(id); dev != devices_.end())
+  std::string by;  // the server a user knows it by: its name and address, not a GUID
+  if (const auto dev = devices_.find(id); dev != devices_.end()) {
     for (const auto& [writer, server] : dev->second.announcers) unindex(writer, id);
+    const auto& server = dev->second.doc.value(model::key::server, nlohmann::json::object());
+    const std::string name = server.value("participant-name", std::string());
+    const auto addresses = server.value("addresses", nlohmann::json::array());
+    if (!name.empty() || !addresses.empty())
+      by = " (server '" + name + "'" +
+           (addresses.empty() || !addresses[0].is_string() ? "" : " at " + addresses[0].get<std::string>()) + ")";
+  }
+  log::info(prefix() + "device " + id + " removed: " + why + by);
   table_.remove(id);
   devices_.erase(id);
 }

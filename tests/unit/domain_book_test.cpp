@@ -277,3 +277,13 @@ TEST_F(Book, AServerDroppingOneDeviceIsNotLost) {
   for (auto t = 0ms; t < 60s; t += 250ms) EXPECT_FALSE(book.tick(t0 + t, {2}).refresh);
   EXPECT_EQ(status().lost_servers, 0u);
 }
+
+TEST_F(Book, ARemovalLineNamesTheServerNotOnlyGuids) {
+  book.writer_matched(1, writer(1, 1), t0);
+  book.sample(1, info("100"));
+  ::testing::internal::CaptureStderr();
+  book.writer_left(1, {}, t0 + 1s);
+  const std::string log = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(log.find("removed: its writer"), std::string::npos) << log;
+  EXPECT_NE(log.find("(server 'server-1' at 10.0.0.1)"), std::string::npos) << log;
+}
