@@ -4,6 +4,7 @@
 #include "api/format.hpp"
 #include "api/host_check.hpp"
 #include "api/listener.hpp"
+#include "api/process_stats.hpp"
 #include "api/server_loop.hpp"
 #include "rsd_model/description.hpp"
 #include "log/log.hpp"
@@ -419,6 +420,7 @@ void ApiServer::Impl::handle_metrics(const httplib::Request& req, httplib::Respo
   if (auto err = check_params("/metrics", req.params, {})) return send_error(res, 400, *err);
   MetricsInput in;
   in.version = version;
+  in.process = read_process_stats();
   in.domains = domains();
   in.usb = status.usb();
   auto snap = table.snapshot();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstdio>
 #include <limits>
 
 namespace rsd::api {
@@ -209,6 +210,11 @@ class MetricWriter {
     }
     out_.append(" ").append(std::to_string(value)).append("\n");
   }
+  void sample(std::string_view name, double value) {  // a label-less real number
+    char text[64];
+    std::snprintf(text, sizeof text, "%.6f", value);
+    out_.append(name).append(" ").append(text).append("\n");
+  }
   std::string take() { return std::move(out_); }
 
  private:
@@ -319,6 +325,22 @@ std::string render_metrics(const MetricsInput& in) {
   w.family("rsd_api_requests_total", "counter", "API requests answered, by HTTP status.");
   for (const auto& [status, n] : in.requests_by_status)
     w.sample("rsd_api_requests_total", {{"status", std::to_string(status)}}, n);
+
+  if (in.process) {  // the names every Prometheus client library uses
+    const ProcessStats& p = *in.process;
+    w.family("process_cpu_seconds_total", "counter", "Total user and system CPU time spent in seconds.");
+    w.sample("process_cpu_seconds_total", p.cpu_seconds);
+    w.family("process_resident_memory_bytes", "gauge", "Resident memory size in bytes.");
+    w.sample("process_resident_memory_bytes", {}, p.resident_bytes);
+    w.family("process_virtual_memory_bytes", "gauge", "Virtual memory size in bytes.");
+    w.sample("process_virtual_memory_bytes", {}, p.virtual_bytes);
+    w.family("process_open_fds", "gauge", "Number of open file descriptors.");
+    w.sample("process_open_fds", {}, p.open_fds);
+    w.family("process_max_fds", "gauge", "Maximum number of open file descriptors.");
+    w.sample("process_max_fds", {}, p.max_fds);
+    w.family("process_start_time_seconds", "gauge", "Start time of the process since unix epoch in seconds.");
+    w.sample("process_start_time_seconds", p.start_time_seconds);
+  }
   return w.take();
 }
 

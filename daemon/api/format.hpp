@@ -90,8 +90,19 @@ std::string sse_comment(std::string_view text);
 
 nlohmann::json domain_status_json(const DomainStatus& status);
 
+// The process as Prometheus' client libraries report it (process_* metrics).
+struct ProcessStats {
+  double cpu_seconds = 0;          // user + system
+  std::uint64_t resident_bytes = 0;
+  std::uint64_t virtual_bytes = 0;
+  std::uint64_t open_fds = 0;
+  std::uint64_t max_fds = 0;
+  double start_time_seconds = 0;  // since the Unix epoch
+};
+
 // Everything /metrics reports, gathered by the server at request time.
 struct MetricsInput {
+  std::optional<ProcessStats> process;  // nothing when /proc could not be read
   std::string version;
   std::vector<DomainStatus> domains;
   std::map<int, std::size_t> devices_per_domain;  // from the table; wins over DomainStatus::devices

@@ -75,6 +75,11 @@ def test_metrics_parse(daemon, free_domain):
     assert metric(m, "rsd_messages_accepted_total", domain=str(free_domain)) == 0
     assert metric(m, "rsd_events_sent_total") == 0
     assert metric(m, "rsd_domain_up", domain=str(free_domain), state="running") == 1
+    # The process's own figures, under the names every Prometheus client library uses.
+    assert 1e6 < metric(m, "process_resident_memory_bytes") < 1e9
+    assert metric(m, "process_open_fds") >= 3
+    assert time.time() - 600 < metric(m, "process_start_time_seconds") <= time.time() + 1  # started for this test
+    assert metric(m, "process_cpu_seconds_total") >= 0
     wait_for(lambda: metric(parse_metrics(request(d.socket, "/metrics")[2].decode()),
                             "rsd_api_requests_total", status="404") == 1, what="the 404 counted")
 

@@ -1,8 +1,10 @@
 #include "api/format.hpp"
 #include "api/listener.hpp"
+#include "api/process_stats.hpp"
 
 #include <gtest/gtest.h>
 
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -272,4 +274,24 @@ TEST(ApiSocketPath, RegularFileIsLeftAlone) {
   EXPECT_TRUE(std::filesystem::exists(path));
   std::filesystem::remove(path);
   EXPECT_THROW(prepare_unix_socket_path(std::string(200, 'x')), std::runtime_error);
+}
+
+TEST(ApiMetrics, ProcessFiguresUnderTheirUsualNames) {
+  const auto process = rsd::api::read_process_stats();  // this test's own process
+  ASSERT_TRUE(process);
+  EXPECT_GT(process->resident_bytes, 1'000'000u);
+  EXPECT_GE(process->virtual_bytes, process->resident_bytes);
+  EXPECT_GE(process->open_fds, 3u);  // stdin, stdout, stderr at least
+  EXPECT_GE(process->max_fds, process->open_fds);
+  EXPECT_GT(process->start_time_seconds, 1.7e9);  // after 2023, before now
+  EXPECT_LE(process->start_time_seconds, static_cast<double>(std::time(nullptr)) + 1);
+  MetricsInput in;
+  in.process = rsd::api::ProcessStats{1.5, 4096, 8192, 7, 1024, 1.75e9};
+  const std::string text = render_metrics(in);
+  for (const char* line : {"# TYPE process_cpu_seconds_total counter\n", "process_cpu_seconds_total 1.500000\n",
+                           "process_resident_memory_bytes 4096\n", "process_virtual_memory_bytes 8192\n",
+                           "process_open_fds 7\n", "process_max_fds 1024\n",
+                           "process_start_time_seconds 1750000000.000000\n"})
+    EXPECT_NE(text.find(line), std::string::npos) << line;
+  EXPECT_EQ(render_metrics(MetricsInput{}).find("process_"), std::string::npos);  // none when /proc is not there
 }
