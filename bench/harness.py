@@ -24,6 +24,10 @@ same run:
   describe      Camera Discovery of a 5-stream realdds camera: first request -> description,
                 and a cached one, against pyrealdds' own device.wait_until_ready()
   idle          CPU-seconds per minute with N devices, with no client and with the watchers
+  open          from "the daemon lists camera X" to a ready device and to its first frame, each
+                path in a fresh process (bench/open_paths.py): query_devices(), a devices-changed
+                context, rsdiscovery.librealsense.device(), rsdiscovery.realdds.open(); a D555-like
+                realdds camera that publishes images; where realdds.open's time goes
 
 Writes OUT/latest.json and OUT/latest.md (OUT: bench/results). --quick does the same in
 under two minutes; --smoke is a tiny run (under a minute) that CI uses so the harness does
@@ -60,16 +64,19 @@ MODES = {
     # reps: repetitions, interleaved; scale: (devices, participants, domains)
     "full": dict(servers=4, per_server=25, http_reps=5, http_secs=5, rsd_load_tcp=True, cli_runs=200, cli_rounds=5,
                  lib_iters=5000, lib_reps=3, rs_reps=5, lat_reps=15, kill_reps=5, scale=(1000, 10, 4),
-                 watchers=100, changes=50, idle_secs=60, sse_connect_s=10, describe_reps=10),
+                 watchers=100, changes=50, idle_secs=60, sse_connect_s=10, describe_reps=10,
+                 open_reps=10),
     "quick": dict(servers=4, per_server=25, http_reps=3, http_secs=1, rsd_load_tcp=False, cli_runs=60, cli_rounds=3,
                   lib_iters=500, lib_reps=2, rs_reps=1, lat_reps=5, kill_reps=2, scale=(1000, 10, 4),
-                  watchers=100, changes=16, idle_secs=6, sse_connect_s=4, describe_reps=4),
+                  watchers=100, changes=16, idle_secs=6, sse_connect_s=4, describe_reps=4,
+                  open_reps=3),
     "smoke": dict(servers=2, per_server=5, http_reps=1, http_secs=1, rsd_load_tcp=False, cli_runs=5, cli_rounds=1,
                   lib_iters=50, lib_reps=1, rs_reps=1, lat_reps=1, kill_reps=1, scale=(20, 4, 2),
-                  watchers=10, changes=2, idle_secs=1, sse_connect_s=4, describe_reps=1),
+                  watchers=10, changes=2, idle_secs=1, sse_connect_s=4, describe_reps=1,
+                  open_reps=1),
 }
 SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout", "describe",
-            "idle"]
+            "idle", "open"]
 
 
 class BenchError(Exception):
@@ -111,6 +118,10 @@ def stats(values):
 
 def ratio(a, b):
     return a / b if a is not None and b not in (None, 0) else None
+
+
+def med_of(s):
+    return (s or {}).get("median")
 
 
 class Lines:
@@ -336,6 +347,7 @@ class Bench:
             self.section("discovery", self.bench_discovery_removal)
             self.section("scale", self.bench_scale)
             self.section("describe", self.bench_describe)
+            self.section("open", self.bench_open)
         finally:
             for fn in reversed(self.cleanup):
                 try:
@@ -862,6 +874,63 @@ http {{
                 "pyrealdds_wait_until_ready_ms": stats(ref),
                 "ratio_first_to_pyrealdds": ratio(stats(first)["median"], stats(ref)["median"])}
 
+    # -- open: from the daemon's list to a ready camera and its first frame (issue 22) ----------
+    OPEN_PATHS = ["query-devices", "devices-changed", "librealsense", "realdds"]
+
+    def bench_open(self):
+        domain = self.locks.take()
+        d = self.start_daemon([domain], "open")
+        info = {"name": "Intel RealSense D555", "serial": "555000777", "product-line": "D500", "product-id": "0B56",
+                "fw-version": "7.56.19829.840", "topic-root": "realsense/D555_555000777"}
+        server = conftest.RealddsServer(domain, [], name="bench-open-server")
+        self.cleanup.append(server.kill)
+        server.command(cmd="add", info=info, spec="d555")  # Depth, Infrared 1, Color; publishes images
+        cam_id = "dds-%d-%s" % (domain, info["topic-root"].replace("/", "."))
+        wait_until(lambda: unix_get(d.socket, f"/v1/devices/{cam_id}")[0] == 200, 20, "the camera listed")
+        env = dict(os.environ, RS_DISCOVERY_ENDPOINT="unix:" + d.socket)
+        runs = {p: [] for p in self.OPEN_PATHS}
+        abnormal = []
+        for rep in range(self.p["open_reps"]):
+            # Interleaved, the order turned each repetition: no path always follows another.
+            order = self.OPEN_PATHS[rep % 4:] + self.OPEN_PATHS[:rep % 4]
+            for path in order:
+                cmd = [self.python, os.path.join(HERE, "open_paths.py"), path, "--domain", str(domain), "--serial",
+                       info["serial"], "--topic-root", info["topic-root"], "--frame"]
+                r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=90, env=env)
+                lines = [x for x in r.stdout.splitlines() if x.startswith("{")]
+                rec = json.loads(lines[-1]) if lines else {}
+                if "ready_s" not in rec:
+                    raise BenchError(f"{path}: exit {r.returncode}, {rec.get('error', '')} {r.stderr[-1500:]}")
+                if r.returncode != 0:  # after its line: a crash on the way out, noted
+                    abnormal.append({"path": path, "exit": r.returncode})
+                runs[path].append(rec)
+        d.stop()
+        out = {"camera": "D555-like realdds server: Depth z16, Infrared 1 y8, Color rgb, 640x480 at 30 fps",
+               "repetitions": self.p["open_reps"], "abnormal_exits": abnormal, "paths": {}}
+        for path, recs in runs.items():
+            ready = [x["ready_s"] * 1000 for x in recs]
+            frame = [x["frame_s"] * 1000 for x in recs if "frame_s" in x]
+            own = [(x["frame_s"] - x["ready_s"]) * 1000 for x in recs if "frame_s" in x]
+            out["paths"][path] = {"ready_ms": stats(ready), "first_frame_ms": stats(frame),
+                                  "frame_own_ms": stats(own), "runs": recs}
+        q = out["paths"]["query-devices"]
+        for path in self.OPEN_PATHS[1:]:
+            e = out["paths"][path]
+            e["ratio_ready_to_query_devices"] = ratio(med_of(e["ready_ms"]), med_of(q["ready_ms"]))
+            e["ratio_frame_to_query_devices"] = ratio(med_of(e["first_frame_ms"]), med_of(q["first_frame_ms"]))
+        # Where realdds.open's time goes: its steps (rsdiscovery.realdds.last_open), each a
+        # difference of two marks, medians over the repetitions.
+        steps = {"participant": ("resolved", "participant"), "server heard": ("participant", "heard"),
+                 "endpoints matched": ("heard", "matched"), "device made": ("matched", "device"),
+                 "initialization set": ("device", "ready"), "daemon asked": (None, "resolved")}
+        rd = runs["realdds"]
+        out["realdds_steps_ms"] = {
+            name: stats([(x["marks"][b] - (x["marks"][a] if a else 0)) * 1000 for x in rd
+                         if x.get("marks") and b in x["marks"] and (a is None or a in x["marks"])])
+            for name, (a, b) in steps.items()}
+        out["realdds_prodded"] = sum(1 for x in rd if x.get("prods"))
+        return out
+
     # ---- the table --------------------------------------------------------------------------
     def table(self):
         R = self.results
@@ -988,6 +1057,55 @@ http {{
                          "ratio": "–" if ds['ratio_first_to_pyrealdds'] is None
                                   else f"{ds['ratio_first_to_pyrealdds']:.3g}×",
                          "target": "≤ 30 s (the use case's limit): " + verdict(med(ds['first_request_ms']) <= 30000)})
+        op = R.get("open", {})
+        if "paths" in op:
+            P = op["paths"]
+            q = P["query-devices"]
+            qr, qf = med(q["ready_ms"]), med(q["first_frame_ms"])
+            names = {"realdds": "`rsdiscovery.realdds.open()`", "librealsense": "`rsdiscovery.librealsense.device()`",
+                     "devices-changed": "a context with `query-devices-max: 0` and a devices-changed callback"}
+            rows.append({"comparison": "open a camera the daemon lists, fresh process: librealsense `query_devices()` "
+                                       "(DDS), the anchor",
+                         "rs_discoveryd": "", "anchor": f"ready {f(qr, 0)} ms{spread(q['ready_ms'], 0)}; first frame "
+                                                        f"{f(qf, 0)} ms{spread(q['first_frame_ms'], 0)}",
+                         "ratio": "", "target": ""})
+            for path in ("realdds", "librealsense", "devices-changed"):
+                e = P[path]
+                r = med(e["ready_ms"])
+                rr = e["ratio_ready_to_query_devices"]
+                ok = target = None
+                if path == "realdds":
+                    ok = None if r is None or rr is None else r <= 50 and rr <= 0.02
+                    target = "≤ 50 ms and ≤ 0.02× `query_devices()`: "
+                elif path == "librealsense":
+                    ok = None if rr is None else rr <= 0.2
+                    target = "≤ 0.2× `query_devices()`: "
+                rows.append({"comparison": f"open a camera, fresh process: {names[path]} → ready device",
+                             "rs_discoveryd": f"{f(r, 1)} ms{spread(e['ready_ms'], 1)}",
+                             "anchor": f"`query_devices()` {f(qr, 0)} ms",
+                             "ratio": "–" if rr is None else f"{rr:.3g}×",
+                             "target": (target + verdict(ok)) if target else ""})
+            for path in ("realdds", "librealsense", "devices-changed"):
+                e = P[path]
+                fr, own = med(e["first_frame_ms"]), med(e["frame_own_ms"])
+                factor = {"realdds": 0.1, "librealsense": 0.2}.get(path)
+                ok = None if factor is None or None in (fr, own, qr) else fr <= factor * qr + own
+                rows.append({"comparison": f"open a camera, fresh process: {names[path]} → first frame "
+                                           f"({'Depth, first_frame()' if path == 'realdds' else 'pipeline, depth'})",
+                             "rs_discoveryd": f"{f(fr, 1)} ms{spread(e['first_frame_ms'], 1)} (the frame's own "
+                                              f"{f(own, 1)} ms after ready)",
+                             "anchor": f"`query_devices()` + pipeline {f(qf, 0)} ms",
+                             "ratio": "–" if e["ratio_frame_to_query_devices"] is None
+                                      else f"{e['ratio_frame_to_query_devices']:.3g}×",
+                             "target": (f"≤ {factor}× `query_devices()` + the frame's own time: " + verdict(ok))
+                                       if factor else ""})
+            st = op.get("realdds_steps_ms", {})
+            parts = ", ".join(f"{k} {f(med(v), 1)}" + (f" (max {f(v.get('max'), 0)})" if v.get("n", 0) > 1 else "")
+                              for k, v in st.items() if v.get("n"))
+            rows.append({"comparison": "where `rsdiscovery.realdds.open()`'s time goes (medians, ms)",
+                         "rs_discoveryd": parts + f"; the server prodded in {op.get('realdds_prodded', 0)} of "
+                                                  f"{op.get('repetitions')}",
+                         "anchor": "", "ratio": "", "target": ""})
         fo = R.get("fanout", {})
         if "broadcast_to_last_watcher" in fo:
             last, spr = fo["broadcast_to_last_watcher"], fo["first_to_last_watcher"]

@@ -7,7 +7,8 @@ import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout", "idle"]
+SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout", "idle",
+            "open"]
 
 
 def test_bench_run_smoke(tmp_path):
@@ -36,6 +37,8 @@ def test_bench_run_smoke(tmp_path):
     assert s["librealsense"]["query_ms"]["n"] >= 1
     assert s["scale"]["devices"] > 0 and s["scale"]["rss_kb"] > 0
     assert s["fanout"]["connected"] > 0
+    for path in ("query-devices", "devices-changed", "librealsense", "realdds"):  # each beside its anchor
+        assert s["open"]["paths"][path]["ready_ms"]["n"] >= 1 and s["open"]["paths"][path]["first_frame_ms"]["n"] >= 1
     assert data["table"]
     md = (tmp_path / "latest.md").read_text()
     assert md.startswith("# bench/run") and "| comparison |" in md

@@ -1,0 +1,129 @@
+"""Open a camera the daemon lists with librealsense (``pyrealsense2``), without the wait of
+``query_devices()``.
+
+    import pyrealsense2 as rs
+    import rsdiscovery.librealsense
+
+    ctx, dev = rsdiscovery.librealsense.device("123622270732")   # a device, or its id, serial or topic-root
+    pipe = rs.pipeline(ctx)
+    cfg = rs.config()
+    cfg.enable_device(dev.get_info(rs.camera_info.serial_number))
+    pipe.start(cfg)
+
+With DDS, librealsense's ``query_devices()`` waits at least 3 s on every call for cameras to
+announce themselves. :func:`device` knows from the daemon which camera and which DDS domain:
+it makes a context on that domain with the query wait off (``"query-devices-max": 0``) and
+waits on its devices-changed callback for that very camera. A USB camera is opened by
+librealsense directly, on a context without DDS.
+
+Needs ``pyrealsense2`` (2.56 or later for DDS cameras): ``pip install 'rsdiscovery[realdds]'``.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any, Callable, Dict, List, Tuple
+
+from ._client import Device
+from ._open import DeviceGone, NotReady, OpenError, Pyrealsense2Missing, StillListed, gone_error, is_network, resolve
+
+__all__ = ["device", "context_settings", "OpenError", "Pyrealsense2Missing", "DeviceGone", "NotReady"]
+
+
+def _pyrealsense2() -> Any:
+    try:
+        import pyrealsense2  # type: ignore[import-not-found]
+    except ImportError as e:
+        raise Pyrealsense2Missing("rsdiscovery.librealsense needs pyrealsense2: install the optional extra: "
+                                  "pip install 'rsdiscovery[realdds]' (from the repository: "
+                                  "pip install './client/python[realdds]'), or pip install pyrealsense2",
+                                  name="pyrealsense2") from e
+    return pyrealsense2
+
+
+def context_settings(cam: Device) -> Dict[str, Any]:
+    """The librealsense context settings for camera `cam` (a device from the daemon): DDS on
+    the camera's domain with the query wait off, or DDS off for a USB camera. The same JSON
+    serves ``rs2::context(json)`` in C++ (see the README)."""
+    if is_network(cam):
+        return {"dds": {"enabled": True, "domain": cam["domain"], "query-devices-max": 0}}
+    return {"dds": {"enabled": False}}
+
+
+def _matcher(rs: Any, cam: Device) -> Callable[[Any], bool]:
+    """Which rs.device is `cam`: a DDS camera by its topic-root (librealsense's physical port
+    of a DDS device, unique on its domain), else by serial."""
+    network = is_network(cam)
+    root, serial = cam.get("topic-root"), cam.get("serial")
+
+    def info(d: Any, what: Any) -> Any:
+        return d.get_info(what) if d.supports(what) else None
+
+    def match(d: Any) -> bool:
+        try:
+            if network:
+                return info(d, rs.camera_info.physical_port) == root
+            return serial is not None and info(d, rs.camera_info.serial_number) == serial
+        except RuntimeError:  # a device that went away while we looked
+            return False
+    return match
+
+
+def device(device_or_serial: Any, *, timeout: float = 5.0, endpoint: Any = None) -> Tuple[Any, Any]:
+    """``(context, rs.device)`` for a camera the daemon lists, as soon as librealsense has it.
+
+    `device_or_serial` is a camera from :func:`rsdiscovery.list_devices`,
+    :func:`rsdiscovery.get_device` or :func:`rsdiscovery.wait_for`, or its id, serial or
+    topic-root (the daemon at `endpoint` is asked; :class:`rsdiscovery.NotFound` when it
+    lists none). Keep the context while using the device: existing code goes on with
+    ``rs.pipeline(context)`` and ``config.enable_device(serial)``. A camera seen both on USB
+    and over DDS is opened over DDS (its USB side belongs to the server that serves it).
+
+    Raises :class:`DeviceGone` when the daemon stops listing the camera meanwhile,
+    :class:`NotReady` (a ``TimeoutError``, stage ``"listing"``) when librealsense does not
+    list it within `timeout` seconds, and :class:`Pyrealsense2Missing` without pyrealsense2.
+    """
+    t0 = time.monotonic()
+    cam = resolve(device_or_serial, endpoint, timeout)
+    rs = _pyrealsense2()
+    if not is_network(cam) and not cam.get("serial"):
+        raise OpenError(f"camera {cam['id']} has no serial: librealsense cannot be asked for it")
+    settings = context_settings(cam)
+    try:
+        ctx = rs.context(settings)
+    except TypeError:  # a pyrealsense2 before settings (2.54): no DDS, nothing to wait for
+        if is_network(cam):
+            raise Pyrealsense2Missing("rsdiscovery.librealsense needs pyrealsense2 2.56 or later for network "
+                                      "cameras", name="pyrealsense2") from None
+        ctx = rs.context()
+    match = _matcher(rs, cam)
+    found = threading.Event()
+    box: List[Any] = []
+
+    def changed(info: Any) -> None:  # on a librealsense thread
+        try:
+            for d in info.get_new_devices():
+                if match(d):
+                    box.append(d)
+                    found.set()
+        except Exception:  # noqa: BLE001  (never let an exception into librealsense)
+            pass
+
+    # The callback first, then the list: a camera added in between is not missed.
+    ctx.set_devices_changed_callback(changed)
+    for d in ctx.query_devices():  # no wait with "query-devices-max": 0
+        if match(d):
+            return ctx, d
+    still = StillListed(cam, endpoint)
+    deadline = t0 + timeout
+    while not found.wait(min(0.05, max(0.0, deadline - time.monotonic()))):
+        now = time.monotonic()
+        if now >= deadline:
+            if still.gone(force=True):
+                raise gone_error(cam, now - t0)
+            where = f"on DDS domain {cam['domain']}" if is_network(cam) else "on USB"
+            raise NotReady(f"librealsense did not list camera {cam['id']} ({cam.get('name')}) {where} within "
+                           f"{timeout:g} s", "listing", now - t0)
+        if still.gone():
+            raise gone_error(cam, now - t0)
+    return ctx, box[0]
