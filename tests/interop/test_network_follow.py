@@ -19,18 +19,12 @@ import time
 import pytest
 
 from conftest import EventStream, device_info, wait_for
+from netns import _run
 from test_realdds import LEASE_S, dds_id
 
 CLI = os.path.join(os.environ.get("RSD_BUILD_DIR", ""), "client", "rs-discover")
 _serial = itertools.count()
 TIMES = []  # (case, seconds from the change to the camera listed)
-
-
-def _run(*args, input=None):
-    r = subprocess.run(list(args), input=input, capture_output=True, text=True)
-    if r.returncode != 0:
-        raise RuntimeError(f"{' '.join(args)}: {r.stderr.strip()}")
-    return r.stdout
 
 
 class Lab:
@@ -114,6 +108,30 @@ def interfaces(d):
     return {i["name"]: i["addresses"] for i in d.get_json("/v1/domains")["domains"][0]["interfaces"]}
 
 
+def camera_listed_on_a(free_domain, daemon, realdds_server, lab):
+    """One camera network (rsdA, namespace "a") with a realdds camera, and the daemon
+    listing it: (daemon, the camera's id, its namespace, its server)."""
+    a = lab.camera_ns("a")
+    lab.plug(a, 0, "rsdA")
+    camera = device_info(1)
+    server = realdds_server(free_domain, [camera], prefix=lab.prefix(a))
+    d = daemon([free_domain], http=False, prefix=lab.prefix(lab.host))
+    cam_id = dds_id(free_domain, camera)
+    wait_for(lambda: d.device_ids() == [cam_id], timeout=20, what="the camera")
+    return d, cam_id, a, server
+
+
+def cameras_on_two_networks(free_domain, realdds_server, lab):
+    """Two camera networks, rsdA and rsdB, a realdds camera on each: their device-infos."""
+    a, b = lab.camera_ns("a"), lab.camera_ns("b")
+    lab.plug(a, 0, "rsdA")
+    lab.plug(b, 1, "rsdB")
+    cam_a, cam_b = device_info(1), device_info(2)
+    realdds_server(free_domain, [cam_a], name="server-a", prefix=lab.prefix(a))
+    realdds_server(free_domain, [cam_b], name="server-b", prefix=lab.prefix(b))
+    return cam_a, cam_b
+
+
 def listed_after(d, device_id, since, case, timeout=20):
     wait_for(lambda: device_id in d.device_ids(), timeout=timeout, interval=0.05, what=f"{device_id} listed")
     TIMES.append((case, time.monotonic() - since))
@@ -158,12 +176,7 @@ def test_renumbered_under_the_running_daemon(free_domain, daemon, realdds_server
 
 
 def test_two_networks_with_a_camera_on_each(free_domain, daemon, realdds_server, lab):
-    a, b = lab.camera_ns("a"), lab.camera_ns("b")
-    lab.plug(a, 0, "rsdA")
-    lab.plug(b, 1, "rsdB")
-    cam_a, cam_b = device_info(1), device_info(2)
-    realdds_server(free_domain, [cam_a], name="server-a", prefix=lab.prefix(a))
-    realdds_server(free_domain, [cam_b], name="server-b", prefix=lab.prefix(b))
+    cam_a, cam_b = cameras_on_two_networks(free_domain, realdds_server, lab)
     d = daemon([free_domain], http=False, prefix=lab.prefix(lab.host))
     assert sorted(interfaces(d)) == ["rsdA", "rsdB"]
     wait_for(lambda: d.device_ids() == sorted([dds_id(free_domain, cam_a), dds_id(free_domain, cam_b)]),
@@ -201,31 +214,19 @@ def test_second_interface_hot_added(free_domain, daemon, realdds_server, lab):
 
 
 def test_unplugged_and_plugged_again(free_domain, daemon, realdds_server, lab):
-    a = lab.camera_ns("a")
-    lab.plug(a, 0, "rsdA")
-    camera = device_info(1)
-    server = realdds_server(free_domain, [camera], prefix=lab.prefix(a))
-    d = daemon([free_domain], http=False, prefix=lab.prefix(lab.host))
-    cam_id = dds_id(free_domain, camera)
-    wait_for(lambda: d.device_ids() == [cam_id], timeout=20, what="the camera")
+    d, cam_id, a, server = camera_listed_on_a(free_domain, daemon, realdds_server, lab)
     lab.unplug("rsdA")  # both ends of the pair go
     wait_for(lambda: d.device_ids() == [], timeout=LEASE_S + 5, what="the camera gone with its network")
     assert list(interfaces(d)) == ["lo"]
     server.kill()  # Fast DDS does not follow interfaces either: the camera restarts with its network
     since = time.monotonic()
     lab.plug(a, 0, "rsdA")
-    realdds_server(free_domain, [camera], prefix=lab.prefix(a))
+    realdds_server(free_domain, [device_info(1)], prefix=lab.prefix(a))
     listed_after(d, cam_id, since, "adapter unplugged and plugged again")
 
 
 def test_link_down_and_up(free_domain, daemon, realdds_server, lab):
-    a = lab.camera_ns("a")
-    lab.plug(a, 0, "rsdA")
-    camera = device_info(1)
-    realdds_server(free_domain, [camera], prefix=lab.prefix(a))
-    d = daemon([free_domain], http=False, prefix=lab.prefix(lab.host))
-    cam_id = dds_id(free_domain, camera)
-    wait_for(lambda: d.device_ids() == [cam_id], timeout=20, what="the camera")
+    d, cam_id, _, _ = camera_listed_on_a(free_domain, daemon, realdds_server, lab)
     lab.exec(lab.host, "ip", "link", "set", "rsdA", "down")
     wait_for(lambda: d.device_ids() == [], timeout=LEASE_S + 5, what="the camera gone while the link is down")
     since = time.monotonic()
@@ -271,13 +272,7 @@ def test_explicit_interface_not_there_yet(free_domain, daemon, realdds_server, l
 
 def test_a_flapping_address_is_backed_off(free_domain, daemon, realdds_server, lab):
     # A bad DHCP server: the host's address changes every half second for 10 s.
-    a = lab.camera_ns("a")
-    lab.plug(a, 0, "rsdA")
-    camera = device_info(1)
-    realdds_server(free_domain, [camera], prefix=lab.prefix(a))
-    d = daemon([free_domain], http=False, prefix=lab.prefix(lab.host))
-    cam_id = dds_id(free_domain, camera)
-    wait_for(lambda: d.device_ids() == [cam_id], timeout=20, what="the camera")
+    d, cam_id, _, _ = camera_listed_on_a(free_domain, daemon, realdds_server, lab)
     flaps, current = 0, None
     end = time.monotonic() + 10
     while time.monotonic() < end:  # making the flaps, not waiting for anything
@@ -297,12 +292,7 @@ def test_a_flapping_address_is_backed_off(free_domain, daemon, realdds_server, l
 
 
 def test_reload_applies_a_changed_interface_list(free_domain, daemon, realdds_server, lab, tmp_path):
-    a, b = lab.camera_ns("a"), lab.camera_ns("b")
-    lab.plug(a, 0, "rsdA")
-    lab.plug(b, 1, "rsdB")
-    cam_a, cam_b = device_info(1), device_info(2)
-    realdds_server(free_domain, [cam_a], name="server-a", prefix=lab.prefix(a))
-    realdds_server(free_domain, [cam_b], name="server-b", prefix=lab.prefix(b))
+    cam_a, cam_b = cameras_on_two_networks(free_domain, realdds_server, lab)
     config = tmp_path / "config.json"
     config.write_text(json.dumps({"interfaces": ["rsdB"]}))
     d = daemon([free_domain], http=False, prefix=lab.prefix(lab.host), extra=["--config", str(config)])

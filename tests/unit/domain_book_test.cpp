@@ -4,6 +4,8 @@
 // device table: no Cyclone, no network, no sleeping.
 #include "dds/domain_book.hpp"
 
+#include "book_sightings.hpp"
+
 #include <gtest/gtest.h>
 
 #include <string>
@@ -11,28 +13,17 @@
 using namespace std::chrono_literals;
 using rsd::dds::BookOptions;
 using rsd::dds::DomainBook;
-using rsd::dds::WriterIdentity;
 
 namespace {
 
 const DomainBook::Clock::time_point t0{};
 
-WriterIdentity writer(int server, int n) {
-  char guid[40];
-  std::snprintf(guid, sizeof guid, "010f%04x.aaaabbbb.00000000.%08x", server, 0x100 + n);
-  return {guid, std::string(guid).substr(0, 27) + "000001c1", "server-" + std::to_string(server),
-          {"10.0.0." + std::to_string(server)}};
-}
-
-rsd::dds::Parsed info(const std::string& serial) {
-  return rsd::dds::DeviceInfo{{{"name", "Intel RealSense D455"}, {"serial", serial},
-                               {"topic-root", "realsense/D455_" + serial}},
-                              "realsense/D455_" + serial};
-}
+using book_test::id;
+using book_test::info;
+using book_test::writer;
 
 rsd::dds::Parsed stopping(const std::string& serial) { return rsd::dds::Stopping{"realsense/D455_" + serial}; }
 
-std::string id(const std::string& serial) { return "dds-7-realsense.D455_" + serial; }
 
 struct Book : ::testing::Test {
   rsd::SharedTable table;

@@ -6,6 +6,8 @@
 #include "dds/domain_book.hpp"
 #include "log/log.hpp"
 
+#include "book_sightings.hpp"
+
 #include <gtest/gtest.h>
 
 #include <map>
@@ -18,28 +20,16 @@ using namespace std::chrono_literals;
 using rsd::dds::BookOptions;
 using rsd::dds::DomainBook;
 using rsd::dds::MatchedWriters;
-using rsd::dds::WriterIdentity;
 
 namespace {
 
 const DomainBook::Clock::time_point t0{};
 
-WriterIdentity writer(int server, int n) {
-  char guid[40];
-  std::snprintf(guid, sizeof guid, "010f%04x.aaaabbbb.00000000.%08x", server, 0x100 + n);
-  return {guid, std::string(guid).substr(0, 27) + "000001c1", "server-" + std::to_string(server),
-          {"10.0.0." + std::to_string(server % 250)}};
-}
+using book_test::id;
+using book_test::info;
+using book_test::writer;
 
 std::string participant_guid(int server) { return writer(server, 0).participant_guid; }
-
-rsd::dds::Parsed info(const std::string& serial) {
-  return rsd::dds::DeviceInfo{{{"name", "Intel RealSense D455"}, {"serial", serial},
-                               {"topic-root", "realsense/D455_" + serial}},
-                              "realsense/D455_" + serial};
-}
-
-std::string id(const std::string& serial) { return "dds-7-realsense.D455_" + serial; }
 
 BookOptions options(std::size_t writers_per_participant, std::size_t writers_per_domain) {
   BookOptions o;
