@@ -251,40 +251,42 @@ std::string render_metrics(const MetricsInput& in) {
     w.sample("rsd_domain_up", {{"domain", std::to_string(d.domain)}, {"state", std::string(to_string(d.state))}},
              d.state == DomainState::running ? 1 : 0);
 
-  w.family("rsd_messages_accepted_total", "counter", "device-info messages taken into the table.");
-  for (const auto& d : in.domains)
-    w.sample("rsd_messages_accepted_total", {{"domain", std::to_string(d.domain)}}, d.accepted);
-
-  w.family("rsd_messages_rejected_total", "counter", "device-info messages dropped, by reason.");
-  for (const auto& d : in.domains)
-    for (const auto& [reason, n] : d.rejected)
-      w.sample("rsd_messages_rejected_total", {{"domain", std::to_string(d.domain)}, {"reason", reason}}, n);
-
-  w.family("rsd_stopping_messages_total", "counter", "'stopping' messages honoured.");
-  for (const auto& d : in.domains)
-    w.sample("rsd_stopping_messages_total", {{"domain", std::to_string(d.domain)}}, d.stopping);
-
-  w.family("rsd_domain_rebuilds_total", "counter", "Times a domain's participant was rebuilt.");
-  for (const auto& d : in.domains)
-    w.sample("rsd_domain_rebuilds_total", {{"domain", std::to_string(d.domain)}}, d.rebuilds);
-
-  w.family("rsd_domain_refreshes_total", "counter",
-           "Rebuilds the daemon made by itself to find a server lost without 'stopping'.");
-  for (const auto& d : in.domains)
-    w.sample("rsd_domain_refreshes_total", {{"domain", std::to_string(d.domain)}}, d.refreshes);
-
-  w.family("rsd_domain_lost_servers", "gauge", "Servers lost without 'stopping' that are still looked for.");
-  for (const auto& d : in.domains)
-    w.sample("rsd_domain_lost_servers", {{"domain", std::to_string(d.domain)}}, d.lost_servers);
-
-  w.family("rsd_device_info_writers", "gauge", "device-info writers matched and followed.");
-  for (const auto& d : in.domains)
-    w.sample("rsd_device_info_writers", {{"domain", std::to_string(d.domain)}}, d.writers);
-
-  w.family("rsd_network_changes_total", "counter",
-           "Times a domain was joined anew because the host's network changed.");
-  for (const auto& d : in.domains)
-    w.sample("rsd_network_changes_total", {{"domain", std::to_string(d.domain)}}, d.network_changes);
+  // One sample per domain each: a table, so a new counter is one line, not four.
+  struct PerDomain {
+    const char* name;
+    const char* type;
+    const char* help;
+    std::uint64_t (*value)(const DomainStatus&);
+  };
+  const PerDomain per_domain_families[] = {
+      {"rsd_messages_accepted_total", "counter", "device-info messages taken into the table.",
+       [](const DomainStatus& d) { return d.accepted; }},
+      {"rsd_messages_rejected_total", "counter", "device-info messages dropped, by reason.", nullptr},
+      {"rsd_stopping_messages_total", "counter", "'stopping' messages honoured.",
+       [](const DomainStatus& d) { return d.stopping; }},
+      {"rsd_domain_rebuilds_total", "counter", "Times a domain's participant was rebuilt.",
+       [](const DomainStatus& d) { return d.rebuilds; }},
+      {"rsd_domain_refreshes_total", "counter",
+       "Rebuilds the daemon made by itself to find a server lost without 'stopping'.",
+       [](const DomainStatus& d) { return d.refreshes; }},
+      {"rsd_domain_lost_servers", "gauge", "Servers lost without 'stopping' that are still looked for.",
+       [](const DomainStatus& d) { return static_cast<std::uint64_t>(d.lost_servers); }},
+      {"rsd_device_info_writers", "gauge", "device-info writers matched and followed.",
+       [](const DomainStatus& d) { return static_cast<std::uint64_t>(d.writers); }},
+      {"rsd_network_changes_total", "counter", "Times a domain was joined anew because the host's network changed.",
+       [](const DomainStatus& d) { return d.network_changes; }},
+  };
+  for (const auto& f : per_domain_families) {
+    w.family(f.name, f.type, f.help);
+    for (const auto& d : in.domains) {
+      if (f.value) {
+        w.sample(f.name, {{"domain", std::to_string(d.domain)}}, f.value(d));
+        continue;
+      }
+      for (const auto& [reason, n] : d.rejected)  // the one keyed by reason too
+        w.sample(f.name, {{"domain", std::to_string(d.domain)}, {"reason", reason}}, n);
+    }
+  }
 
   w.family("rsd_writers_refused_total", "counter", "device-info writers refused by a writer cap, by reason.");
   for (const auto& d : in.domains)

@@ -7,8 +7,6 @@ and a bad RS_DISCOVERY_ENDPOINT named."""
 import json
 import re
 import socket
-import signal
-import subprocess
 import threading
 import time
 
@@ -16,7 +14,7 @@ import os
 import sys
 
 import pytest
-from client_util import CLI, DOMAIN_RANGE, SOURCE, rs_discover
+from client_util import DOMAIN_RANGE, SOURCE, WatchProcess, rs_discover
 from conftest import UnixHTTPConnection, device_info, free_port, wait_for
 
 sys.path.insert(0, os.path.join(SOURCE, "client", "python", "src"))
@@ -120,13 +118,8 @@ def test_watch_says_what_changed_and_reports_reconnects(daemon, realdds_server, 
     d = daemon([domain], socket=sock)
     wait_for(lambda: len(d.devices()) == 1, 20, what="the camera")
     # --initial: the camera there now comes first, so its line says the watch is live.
-    watch = subprocess.Popen([CLI, "--endpoint", "unix:" + sock, "watch", "--initial"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    lines, errors = [], []
-    readers = [threading.Thread(target=lambda: lines.extend(iter(watch.stdout.readline, "")), daemon=True),
-               threading.Thread(target=lambda: errors.extend(iter(watch.stderr.readline, "")), daemon=True)]
-    for r in readers:
-        r.start()
+    watch = WatchProcess("unix:" + sock, "--initial")
+    lines, errors = watch.lines, watch.errors
     wait_for(lambda: any(" added " in x for x in lines), 20, what="the watch's first line")
     # The daemon goes away and comes back: the watch says so on stderr, and goes on.
     d.stop()
@@ -138,10 +131,7 @@ def test_watch_says_what_changed_and_reports_reconnects(daemon, realdds_server, 
     wait_for(lambda: d2.devices()[0]["fw-version"] == "5.16.1.0", 20, what="the new firmware in the table")
     changed = wait_for(lambda: next((x for x in lines if " changed " in x and "5.16.1.0" in x), None), 20,
                        what="the watch's changed line")
-    watch.send_signal(signal.SIGINT)  # a user's Ctrl-C ends it cleanly
-    assert watch.wait(30) == 0, errors
-    for r in readers:
-        r.join(10)  # to the end of its output
+    assert watch.interrupt() == 0, errors  # a user's Ctrl-C ends it cleanly
     err = "".join(errors)
     assert "fw-version 5.16.0.1 \u2192 5.16.1.0" in changed
     assert re.match(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d{3} changed ", changed)

@@ -9,11 +9,10 @@ import re
 import signal
 import socket
 import subprocess
-import threading
 import uuid
 
 import pytest
-from client_util import CLI, DOMAIN_RANGE, rs_discover
+from client_util import CLI, DOMAIN_RANGE, WatchProcess, rs_discover
 from conftest import DAEMON, device_info, wait_for
 
 
@@ -133,13 +132,8 @@ def test_watch_initial_rows_changes_in_words_and_one_line_per_outage(daemon, rea
     assert r.returncode == 0 and json.loads(r.stdout) | {"id": 0} == {
         "event": "added", "id": 0, "synthetic": True, "initial": True, "device": json.loads(r.stdout)["device"]}, r
 
-    watch = subprocess.Popen([CLI, "--endpoint", "unix:" + sock, "watch", "--initial"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    lines, errors = [], []
-    readers = [threading.Thread(target=lambda: lines.extend(iter(watch.stdout.readline, "")), daemon=True),
-               threading.Thread(target=lambda: errors.extend(iter(watch.stderr.readline, "")), daemon=True)]
-    for t in readers:
-        t.start()
+    watch = WatchProcess("unix:" + sock, "--initial")
+    lines, errors = watch.lines, watch.errors
     first = wait_for(lambda: lines[0] if lines else None, 20, what="the initial row")
     assert f" added   {device_id} " in first and "(present at start)" in first and "re-listed" not in first, first
 
@@ -172,10 +166,7 @@ def test_watch_initial_rows_changes_in_words_and_one_line_per_outage(daemon, rea
     # A second server announces the camera with new firmware: the line says so in words.
     realdds_server(domain, [dict(info, **{"fw-version": "5.16.1.0"})], name="second-server")
     changed = wait_for(lambda: next((x for x in lines if " changed " in x), None), 30, what="the changed line")
-    watch.send_signal(signal.SIGINT)
-    assert watch.wait(30) == 0, errors
-    for t in readers:
-        t.join(10)
+    assert watch.interrupt() == 0, errors
     assert "fw-version 5.16.0.1 \u2192 5.16.1.0" in changed and "now served by second-server (" in changed, changed
     assert "{" not in changed and '"' not in changed, changed  # words, not JSON
     lost = [x for x in errors if "lost the daemon" in x]

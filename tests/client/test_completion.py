@@ -161,39 +161,34 @@ def endpoints(d):
             f"--endpoint=http://127.0.0.1:{d.port}"]
 
 
+def assert_ids_complete_after_every_endpoint(shell, d, info):
+    """In `shell`, an id and a serial complete after each form of --endpoint, before the
+    command and after it; the shell is closed after."""
+    device_id = d.devices()[0]["id"]
+    try:
+        for endpoint in endpoints(d):
+            assert shell.complete(f"rs-discover {endpoint} get dds-") == \
+                f"rs-discover {endpoint} get {device_id}", endpoint
+            assert shell.complete(f"rs-discover {endpoint} describe 1236") == \
+                f"rs-discover {endpoint} describe {info['serial']}", endpoint
+            assert shell.complete(f"rs-discover get {endpoint} dds-") == \
+                f"rs-discover get {endpoint} {device_id}", endpoint
+    finally:
+        shell.close()
+
+
 def test_bash_completes_ids_after_every_form_of_endpoint(endpoint_env):
     d, info, env = endpoint_env
-    device_id = d.devices()[0]["id"]
     shell = Terminal(["bash", "--norc", "--noprofile", "-i"], env, [
         "PS1='$ '", "bind 'set enable-bracketed-paste off'", "bind 'set bell-style none'",
         "source /usr/share/bash-completion/bash_completion", f"source {BASH}",
         "[[ $COMP_WORDBREAKS == *:* && $COMP_WORDBREAKS == *=* ]]"])  # the default, splitting at ':' and '='
-    try:
-        for endpoint in endpoints(d):
-            assert shell.complete(f"rs-discover {endpoint} get dds-") == \
-                f"rs-discover {endpoint} get {device_id}", endpoint
-            assert shell.complete(f"rs-discover {endpoint} describe 1236") == \
-                f"rs-discover {endpoint} describe {info['serial']}", endpoint
-            # after the command, too
-            assert shell.complete(f"rs-discover get {endpoint} dds-") == \
-                f"rs-discover get {endpoint} {device_id}", endpoint
-    finally:
-        shell.close()
+    assert_ids_complete_after_every_endpoint(shell, d, info)
 
 
 def test_zsh_completes_ids_after_every_form_of_endpoint(endpoint_env):
     d, info, env = endpoint_env
-    device_id = d.devices()[0]["id"]
     shell = Terminal(["zsh", "-f", "-i"], dict(env, PS1="$ "), [
         "bindkey -e", "unsetopt beep", f"fpath=({os.path.dirname(ZSH)} $fpath)", "autoload -Uz compinit",
         "compinit -u -D"])
-    try:
-        for endpoint in endpoints(d):
-            assert shell.complete(f"rs-discover {endpoint} get dds-") == \
-                f"rs-discover {endpoint} get {device_id}", endpoint
-            assert shell.complete(f"rs-discover {endpoint} describe 1236") == \
-                f"rs-discover {endpoint} describe {info['serial']}", endpoint
-            assert shell.complete(f"rs-discover get {endpoint} dds-") == \
-                f"rs-discover get {endpoint} {device_id}", endpoint
-    finally:
-        shell.close()
+    assert_ids_complete_after_every_endpoint(shell, d, info)
