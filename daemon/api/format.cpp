@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cstdio>
 #include <limits>
+#include <type_traits>
 
 namespace rsd::api {
 
@@ -210,6 +211,13 @@ class MetricWriter {
     }
     out_.append(" ").append(std::to_string(value)).append("\n");
   }
+  // A family of one label-less sample.
+  template <typename Value>
+  void single(std::string_view name, std::string_view type, std::string_view help, Value value) {
+    family(name, type, help);
+    if constexpr (std::is_floating_point_v<Value>) sample(name, static_cast<double>(value));
+    else sample(name, {}, static_cast<std::uint64_t>(value));
+  }
   void sample(std::string_view name, double value) {  // a label-less real number
     char text[64];
     std::snprintf(text, sizeof text, "%.6f", value);
@@ -304,25 +312,20 @@ std::string render_metrics(const MetricsInput& in) {
     w.sample("rsd_usb_devices", {}, in.usb->devices);
   }
 
-  w.family("rsd_events_sent_total", "counter", "Device events written to SSE clients.");
-  w.sample("rsd_events_sent_total", {}, in.events_sent);
-  w.family("rsd_event_streams", "gauge", "Open SSE streams.");
-  w.sample("rsd_event_streams", {}, in.event_streams);
-  w.family("rsd_event_streams_rejected_total", "counter", "SSE streams refused at the limit (503).");
-  w.sample("rsd_event_streams_rejected_total", {}, in.event_streams_rejected);
-  w.family("rsd_event_streams_dropped_total", "counter",
-           "SSE streams closed because their client stopped reading (buffer limit or stall).");
-  w.sample("rsd_event_streams_dropped_total", {}, in.event_streams_dropped);
-  w.family("rsd_api_connections", "gauge", "Open API connections, both listeners.");
-  w.sample("rsd_api_connections", {}, in.connections);
-  w.family("rsd_api_connections_refused_total", "counter", "Connections answered 503 at the connection limit.");
-  w.sample("rsd_api_connections_refused_total", {}, in.connections_refused);
-  w.family("rsd_api_timeouts_total", "counter",
-           "Connections closed for not sending a request, or not reading a response, in time.");
-  w.sample("rsd_api_timeouts_total", {}, in.timeouts);
-  w.family("rsd_api_requests_rejected_total", "counter",
-           "Requests refused before parsing: 414, 431, 413 or a bad Content-Length.");
-  w.sample("rsd_api_requests_rejected_total", {}, in.rejected);
+  w.single("rsd_events_sent_total", "counter", "Device events written to SSE clients.", in.events_sent);
+  w.single("rsd_event_streams", "gauge", "Open SSE streams.", in.event_streams);
+  w.single("rsd_event_streams_rejected_total", "counter",
+           "SSE streams refused at the limit (503).", in.event_streams_rejected);
+  w.single("rsd_event_streams_dropped_total", "counter",
+           "SSE streams closed because their client stopped reading (buffer limit or stall).",
+           in.event_streams_dropped);
+  w.single("rsd_api_connections", "gauge", "Open API connections, both listeners.", in.connections);
+  w.single("rsd_api_connections_refused_total", "counter",
+           "Connections answered 503 at the connection limit.", in.connections_refused);
+  w.single("rsd_api_timeouts_total", "counter",
+           "Connections closed for not sending a request, or not reading a response, in time.", in.timeouts);
+  w.single("rsd_api_requests_rejected_total", "counter",
+           "Requests refused before parsing: 414, 431, 413 or a bad Content-Length.", in.rejected);
 
   w.family("rsd_api_requests_total", "counter", "API requests answered, by HTTP status.");
   for (const auto& [status, n] : in.requests_by_status)
@@ -330,18 +333,13 @@ std::string render_metrics(const MetricsInput& in) {
 
   if (in.process) {  // the names every Prometheus client library uses
     const ProcessStats& p = *in.process;
-    w.family("process_cpu_seconds_total", "counter", "Total user and system CPU time spent in seconds.");
-    w.sample("process_cpu_seconds_total", p.cpu_seconds);
-    w.family("process_resident_memory_bytes", "gauge", "Resident memory size in bytes.");
-    w.sample("process_resident_memory_bytes", {}, p.resident_bytes);
-    w.family("process_virtual_memory_bytes", "gauge", "Virtual memory size in bytes.");
-    w.sample("process_virtual_memory_bytes", {}, p.virtual_bytes);
-    w.family("process_open_fds", "gauge", "Number of open file descriptors.");
-    w.sample("process_open_fds", {}, p.open_fds);
-    w.family("process_max_fds", "gauge", "Maximum number of open file descriptors.");
-    w.sample("process_max_fds", {}, p.max_fds);
-    w.family("process_start_time_seconds", "gauge", "Start time of the process since unix epoch in seconds.");
-    w.sample("process_start_time_seconds", p.start_time_seconds);
+    w.single("process_cpu_seconds_total", "counter", "Total user and system CPU time spent in seconds.", p.cpu_seconds);
+    w.single("process_resident_memory_bytes", "gauge", "Resident memory size in bytes.", p.resident_bytes);
+    w.single("process_virtual_memory_bytes", "gauge", "Virtual memory size in bytes.", p.virtual_bytes);
+    w.single("process_open_fds", "gauge", "Number of open file descriptors.", p.open_fds);
+    w.single("process_max_fds", "gauge", "Maximum number of open file descriptors.", p.max_fds);
+    w.single("process_start_time_seconds", "gauge",
+             "Start time of the process since unix epoch in seconds.", p.start_time_seconds);
   }
   return w.take();
 }
