@@ -20,6 +20,13 @@ void LostServers::writer_lost(const std::string& participant, Clock::time_point 
   if (!lost_.count(participant)) suspects_.emplace(participant, now);
 }
 
+bool LostServers::heard_refresh_allowed(const Lost& lost, Clock::time_point now) const {
+  if (lost.heard_refreshes < times_.heard_refreshes || !last_refresh_) return true;
+  auto wait = times_.heard_backoff;
+  for (int i = times_.heard_refreshes; i < lost.heard_refreshes && wait < times_.heard_backoff_max; ++i) wait *= 2;
+  return now - *last_refresh_ >= std::min(wait, times_.heard_backoff_max);
+}
+
 LostServers::Verdict LostServers::check(Clock::time_point now) {
   Verdict verdict;
   for (auto it = suspects_.begin(); it != suspects_.end();) {
@@ -47,8 +54,9 @@ LostServers::Verdict LostServers::check(Clock::time_point now) {
     Lost& lost = it->second;
     const bool blind = now >= lost.next_refresh;
     // Heard again, with a reader to hear its devices on, and still lost after the grace.
-    const bool stale = lost.heard_at && reading_since_ && lost.heard_refreshes < times_.heard_refreshes &&
-                       now - std::max(*lost.heard_at, *reading_since_) >= times_.rematch_grace;
+    const bool stale = lost.heard_at && reading_since_ &&
+                       now - std::max(*lost.heard_at, *reading_since_) >= times_.rematch_grace &&
+                       heard_refresh_allowed(lost, now);
     if (stale) ++lost.heard_refreshes;
     verdict.refresh = verdict.refresh || blind || stale;
     ++it;

@@ -26,7 +26,15 @@ struct LostServerTimes {
   // than `forget_after` is given up (a crashed one comes back under another GUID).
   std::chrono::milliseconds refresh_first{30000};
   std::chrono::milliseconds rematch_grace{500};
-  int heard_refreshes = 3;  // per lost server: a peer that never rematches can't loop us
+  // Per lost server, `heard_refreshes` come at once; later ones wait
+  // `heard_backoff`, doubling up to `heard_backoff_max`, since the last refresh,
+  // so a peer that never rematches can't loop us. They are not given up: on a
+  // lossy link (measured: 50 % UDP loss both ways) the first few are spent while
+  // the loss lasts, and the server must still be found soon after the link is
+  // good again (within the cap: 30 s).
+  int heard_refreshes = 3;
+  std::chrono::milliseconds heard_backoff{std::chrono::seconds(4)};
+  std::chrono::milliseconds heard_backoff_max{std::chrono::seconds(30)};
   std::chrono::milliseconds refresh_again{std::chrono::seconds(120)};
   std::chrono::milliseconds refresh_max{std::chrono::minutes(10)};
   std::chrono::milliseconds forget_after{std::chrono::minutes(30)};
@@ -77,6 +85,8 @@ class LostServers {
     std::optional<Clock::time_point> heard_at;  // its participant is alive again
     int heard_refreshes = 0;
   };
+
+  bool heard_refresh_allowed(const Lost& lost, Clock::time_point now) const;
 
   LostServerTimes times_;
   std::set<std::string> alive_;                         // participants Cyclone sees now

@@ -116,16 +116,55 @@ TEST(LostServers, HeardAgainWithoutItsDevicesRefreshesAfterTheGrace) {
   lost.reader_made(t0 + 4200ms);
   EXPECT_FALSE(lost.check(t0 + 4600ms).refresh);
   EXPECT_TRUE(lost.check(t0 + 4700ms).refresh);  // still nothing: once more
-  // At most heard_refreshes (3) of those for one server, then only the blind ones.
-  int heard = 2;
-  for (int round = 1; round < 6; ++round) {
-    const auto base = t0 + std::chrono::seconds(4 + 4 * round);
+  // heard_refreshes (3) of those at once for one server, then backed off: 4, 8,
+  // 16 s after the last refresh, then every 30 s, never more often, never given up.
+  std::vector<std::chrono::seconds> heard_at;
+  auto base = t0 + 5s;
+  lost.participant_rebuilt();
+  lost.reader_made(base);
+  lost.participant_alive(kServer, base);
+  for (auto t = base; t < t0 + 200s; t += 100ms) {
+    if (!lost.check(t).refresh) continue;
+    heard_at.push_back(std::chrono::duration_cast<std::chrono::seconds>(t - t0));
+    // Each refresh makes a participant that hears the server again at once.
     lost.participant_rebuilt();
-    lost.reader_made(base);
-    lost.participant_alive(kServer, base);
-    if (lost.check(base + 1s).refresh) ++heard;
+    lost.reader_made(t);
+    lost.participant_alive(kServer, t);
   }
-  EXPECT_EQ(heard, 3);
+  // The third at 5.5 s; then 4, 8, 16 s later, and every 30 s after.
+  ASSERT_GE(heard_at.size(), 7u);
+  EXPECT_EQ(heard_at[0], 5s);
+  EXPECT_EQ(heard_at[1] - heard_at[0], 4s);
+  EXPECT_EQ(heard_at[2] - heard_at[1], 8s);
+  EXPECT_EQ(heard_at[3] - heard_at[2], 16s);
+  EXPECT_EQ(heard_at[4] - heard_at[3], 30s);
+  EXPECT_EQ(heard_at[5] - heard_at[4], 30s);
+}
+
+TEST(LostServers, ServerHeardAgainAfterALossyStretchIsStillLookedFor) {
+  // 50 % loss: the quick refreshes are spent while the loss lasts, each new
+  // participant losing the server again. When the link is good, a refresh still
+  // comes within the back-off, not only the blind ones minutes later.
+  LostServers lost;
+  lost.reader_made(t0 - 60s);
+  lost.writer_lost(kServer, t0);
+  lost.check(t0 + 500ms);
+  auto t = t0 + 1s;
+  for (int spent = 0; spent < 3; t += 100ms) {
+    lost.participant_alive(kServer, t);
+    if (lost.check(t).refresh) {
+      ++spent;
+      lost.participant_rebuilt();
+      lost.reader_made(t);
+    }
+  }
+  // The link is good from here: the server is heard, its devices are not (Cyclone's stale state).
+  lost.participant_alive(kServer, t);
+  std::optional<LostServers::Clock::time_point> next;
+  for (auto u = t; u < t + 30s && !next; u += 100ms)
+    if (lost.check(u).refresh) next = u;
+  ASSERT_TRUE(next.has_value()) << "no refresh within 30 s of the server heard again";
+  EXPECT_LE(*next - t, 5s);
 }
 
 TEST(LostServers, HeardAgainAndAnnouncingIsFound) {
