@@ -69,16 +69,22 @@ std::string cyclone_interfaces_xml(const std::vector<NetInterface>& chosen) {
 bool cyclone_config_names_interfaces(const std::string& config) {
   std::string text = config;
   // CYCLONEDDS_URI and the option may hold several fragments separated by commas,
-  // each XML or a file URI.
+  // each XML, a file URI or (as Cyclone also takes) a bare file path. A piece of
+  // XML split at a comma inside it names no file and reads as nothing.
   std::size_t pos = 0;
-  while ((pos = config.find("file://", pos)) != std::string::npos) {
-    std::size_t end = config.find(',', pos);
-    const std::string path = config.substr(pos + 7, end == std::string::npos ? std::string::npos : end - pos - 7);
-    std::ifstream file(path);
-    std::stringstream body;
-    body << file.rdbuf();
-    text += body.str();
-    pos = end == std::string::npos ? config.size() : end;
+  while (pos <= config.size()) {
+    const std::size_t end = std::min(config.find(',', pos), config.size());
+    std::string piece = config.substr(pos, end - pos);
+    piece.erase(0, piece.find_first_not_of(" \t\r\n"));
+    piece.erase(piece.find_last_not_of(" \t\r\n") + 1);
+    if (piece.rfind("file://", 0) == 0) piece.erase(0, 7);
+    if (!piece.empty() && piece.find('<') == std::string::npos && piece.find('>') == std::string::npos) {
+      std::ifstream file(piece);
+      std::stringstream body;
+      body << file.rdbuf();
+      text += body.str();
+    }
+    pos = end + 1;
   }
   return text.find("NetworkInterface") != std::string::npos;  // also the older NetworkInterfaceAddress
 }

@@ -85,6 +85,11 @@ TEST(CycloneInterfaces, XmlNamesEachAndAnExplicitConfigIsSeen) {
   std::ofstream(path) << "<CycloneDDS><Domain><General><Interfaces><NetworkInterface name=\"eth1\"/>"
                          "</Interfaces></General></Domain></CycloneDDS>";
   EXPECT_TRUE(rsd::net::cyclone_config_names_interfaces("<Tracing/>,file://" + path));
+  // Cyclone takes a bare path too (measured: `--cyclonedds-config /etc/x.xml`
+  // naming NetworkInterfaceAddress was combined with the daemon's own list, and
+  // Cyclone refused the mix, so the domain was never made).
+  EXPECT_TRUE(rsd::net::cyclone_config_names_interfaces(path));
+  EXPECT_TRUE(rsd::net::cyclone_config_names_interfaces(" " + path + " ,<Tracing/>"));
   EXPECT_FALSE(rsd::net::cyclone_config_names_interfaces("file:///nonexistent/cyclone.xml"));
   std::remove(path.c_str());
 }
