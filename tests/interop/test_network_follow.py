@@ -12,6 +12,7 @@ the issue note's, never an assertion here).
 import itertools
 import json
 import os
+import queue
 import signal
 import subprocess
 import time
@@ -23,6 +24,9 @@ from netns import _run
 from test_realdds import LEASE_S, dds_id
 
 CLI = os.path.join(os.environ.get("RSD_BUILD_DIR", ""), "client", "rs-discover")
+# How long the lossy-link cases last: short in the suite, 60 s for the issue's table
+# (RSD_LOSS_SECONDS=60 ctest -R interop_network_follow -V).
+LOSS_SECONDS = float(os.environ.get("RSD_LOSS_SECONDS", "12"))
 _serial = itertools.count()
 TIMES = []  # (case, seconds from the change to the camera listed)
 
@@ -91,7 +95,9 @@ def lab():
 def print_times():
     yield
     if TIMES:
-        print("\n| case | change -> camera listed |\n| --- | --- |")
+        # RSD_SUITE: the daemon is another release's package (nspawn.py stage).
+        print(f"\n{os.environ.get('RSD_SUITE', 'this tree')}'s daemon\n"
+              "| case | change -> camera listed |\n| --- | --- |")
         for case, seconds in TIMES:
             print(f"| {case} | {seconds:.2f} s |")
 
@@ -303,3 +309,58 @@ def test_reload_applies_a_changed_interface_list(free_domain, daemon, realdds_se
     d.proc.send_signal(signal.SIGHUP)
     listed_after(d, dds_id(free_domain, cam_a), since, "reload widens the interface list")
     assert sorted(interfaces(d)) == ["rsdA", "rsdB"]
+
+
+def cpu_seconds(pid):
+    """User plus system CPU time of process `pid` so far."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+@pytest.mark.parametrize("percent", [20, 50])
+def test_a_lossy_link_is_ridden_out(percent, free_domain, daemon, realdds_server, lab):
+    # A bad Wi-Fi bridge or a congested switch: random loss of the camera's UDP
+    # both ways. The kernel sees no change, so no netlink event and no refresh.
+    # What gets through renews the server's lease (3 s); at 50 % a lease can run
+    # out (3 s with nothing through happens), and then the camera is looked for
+    # again and listed once traffic passes. Either way the daemon spends next to
+    # nothing, and the camera is listed when the link is good again.
+    d, cam_id, a, _ = camera_listed_on_a(free_domain, daemon, realdds_server, lab)
+    events = EventStream(d)
+    cpu0 = cpu_seconds(d.proc.pid)
+    rule = f"meta l4proto udp numgen random mod 100 < {percent} drop"
+    lab.exec(a, "nft", "-f", "-", input=(
+        "table inet rsdloss {\n"
+        f"  chain in {{ type filter hook input priority -10; iifname \"crsdA\" {rule}; }}\n"
+        f"  chain out {{ type filter hook output priority -10; oifname \"crsdA\" {rule}; }}\n"
+        "}\n"))
+    changes = []  # what a watcher saw while the link was lossy
+    gaps, removed_at = [], None  # how long the camera was missing each time
+    end = time.monotonic() + LOSS_SECONDS
+    while (left := end - time.monotonic()) > 0:
+        try:
+            ev = events.events.get(timeout=left)
+        except queue.Empty:
+            break
+        if ev and ev.get("event") in ("added", "removed", "updated"):
+            changes.append(ev["event"])
+            if ev["event"] == "removed":
+                removed_at = time.monotonic()
+            elif ev["event"] == "added" and removed_at is not None:
+                gaps.append(time.monotonic() - removed_at)
+                removed_at = None
+    lab.exec(a, "nft", "delete", "table", "inet", "rsdloss")
+    cpu = cpu_seconds(d.proc.pid) - cpu0
+    since = time.monotonic()
+    # Bounded by the lease, the longest back-off between refreshes (30 s) and a
+    # refresh's settle time.
+    wait_for(lambda: d.device_ids() == [cam_id], timeout=LEASE_S + 40, interval=0.05, what="the camera after the loss")
+    back = time.monotonic() - since
+    events.close()
+    entry = d.get_json("/v1/domains")["domains"][0]
+    print(f"{percent} % loss for {LOSS_SECONDS:.0f} s: {changes.count('removed')} removals "
+          f"(missing for {', '.join(f'{g:.1f}' for g in gaps) or '-'} s), "
+          f"{entry['network-changes']} network refreshes, {cpu:.2f} CPU-s, listed {back:.2f} s after")
+    assert entry["network-changes"] == 0  # loss is not a network change
+    assert cpu < 0.05 * LOSS_SECONDS  # well under 5 % of a core (measured ~0.1 %)

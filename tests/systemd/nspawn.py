@@ -10,6 +10,11 @@
 - Container: that tarball unpacked and booted with systemd-nspawn (systemd as
   PID 1, its own network namespace: no DDS traffic or port 8035 shared with the
   host or other tests); commands go in with nsenter.
+- stage(): another release's packages and system, once for every test that
+  needs them (`python3 nspawn.py stage trixie DIR`, a ctest fixture): DIR/debs,
+  DIR/root (that release's system with its daemon unpacked) and DIR/rs-discoveryd,
+  which runs that daemon on this host with its own loader and libraries, so the
+  interop tests run unchanged against it.
 
 Used by test_real_systemd.py and by run-real-systemd (the trixie run).
 """
@@ -35,6 +40,11 @@ CONTAINER_PATH = "/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin"
 PREVIOUS_COMMIT = "1447030974492fa30cf8f5234b063889bc125b62"
 PREVIOUS_VERSION = "0.1.0~prev1"
 BUILD_TOOLS = ["build-essential", "debhelper", "dpkg-dev", "fakeroot", "git"]
+# What the booted system gets: this tree's daemon, CLI and both client libraries
+# (the -dev package is checked on the host, by tests/packaging), and the previous
+# release's packages to upgrade from.
+CURRENT = ["rs-discoveryd", "rs-discover", "librsdiscovery0", "python3-rsdiscovery"]
+PREVIOUS = ["rs-discoveryd", "librsdiscovery0"]
 
 
 def log(msg):
@@ -157,6 +167,14 @@ def run_depends(debs):
                 if name not in ours:
                     names.add(name)
     return sorted(names)
+
+
+def system_rootfs(suite, current, previous):
+    """The booted system's tarball: every run-time dependency of the CURRENT and
+    PREVIOUS packages. One cache key for the real-systemd test and stage()."""
+    wanted = {p: current[p] for p in CURRENT}
+    old = {p: previous[p] for p in PREVIOUS}
+    return rootfs(suite, run_depends({**wanted, **old}))
 
 
 def rootfs(suite, packages):
@@ -296,3 +314,42 @@ class Container:
         console = os.path.join(os.path.dirname(self.dir), f"{os.path.basename(self.dir)}.console")
         if os.path.exists(console):
             os.remove(console)
+
+
+def stage(suite, out):
+    """`suite`'s packages of this tree in out/debs (built in a container of that
+    release), its system (the real-systemd test's rootfs, so one cache serves
+    both) in out/root with the daemon's package unpacked into it, and
+    out/rs-discoveryd: that daemon run on this host by its own release's loader
+    and libraries (Cyclone DDS, libusb, libsystemd, cpp-httplib), with this host's
+    files, sockets and network namespaces. Not a chroot: a test's socket and
+    config paths mean the same to it as to the test."""
+    debs_dir, root = os.path.join(out, "debs"), os.path.join(out, "root")
+    shutil.rmtree(out, ignore_errors=True)
+    t0 = time.monotonic()
+    current = build_debs(SOURCE_DIR, debs_dir, suite)
+    previous = previous_debs(suite)
+    tar = system_rootfs(suite, current, previous)
+    os.makedirs(root)
+    sh("tar", "-x", "-C", root, "-f", tar, timeout=300)
+    sh("dpkg-deb", "-x", current["rs-discoveryd"], root)
+    libdir = "usr/lib/x86_64-linux-gnu"
+    wrapper = os.path.join(out, "rs-discoveryd")
+    with open(wrapper, "w") as f:
+        f.write(f"""#!/bin/sh
+# rs-discoveryd as packaged for {suite}, run by {suite}'s own loader and libraries
+# (nspawn.py stage). exec keeps the PID: signals reach the daemon itself.
+root=$(dirname "$0")/root
+exec "$root/{libdir}/ld-linux-x86-64.so.2" --library-path "$root/{libdir}" "$root/usr/sbin/rs-discoveryd" "$@"
+""")
+    os.chmod(wrapper, 0o755)
+    version = sh(wrapper, "--version").stdout.strip()
+    cyclone = [os.path.basename(p) for p in os.listdir(os.path.join(root, libdir)) if p.startswith("libddsc.so.")]
+    log(f"stage {suite}: {version}, {sorted(cyclone)}, in {time.monotonic() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    import sys
+    if len(sys.argv) != 4 or sys.argv[1] != "stage":
+        sys.exit("usage: nspawn.py stage SUITE DIR")
+    stage(sys.argv[2], os.path.abspath(sys.argv[3]))

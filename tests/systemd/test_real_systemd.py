@@ -27,10 +27,7 @@ BUILD_IN_CONTAINER = SUITE != nspawn.host_suite()
 API_SOCK = "/run/rs-discoveryd/api.sock"
 SERVICE = "rs-discoveryd.service"
 SOCKET = "rs-discoveryd.socket"
-# What goes into the container: the daemon, the CLI and both client libraries
-# (the -dev package is checked on the host, by tests/packaging).
-CURRENT = ["rs-discoveryd", "rs-discover", "librsdiscovery0", "python3-rsdiscovery"]
-PREVIOUS = ["rs-discoveryd", "librsdiscovery0"]
+CURRENT, PREVIOUS = nspawn.CURRENT, nspawn.PREVIOUS
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="boots a container: needs root")
 
@@ -63,7 +60,7 @@ def system(debs, tmp_path_factory):
     current, previous = debs
     wanted = {p: current[p] for p in CURRENT}
     old = {p: previous[p] for p in PREVIOUS}
-    tar = timed("rootfs", nspawn.rootfs, SUITE, nspawn.run_depends({**wanted, **old}))
+    tar = timed("rootfs", nspawn.system_rootfs, SUITE, current, previous)
     staged = tmp_path_factory.mktemp("staged")
     for name, group in (("current", wanted), ("previous", old)):
         (staged / name).mkdir()
