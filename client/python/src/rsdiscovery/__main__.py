@@ -61,7 +61,7 @@ def run(argv: Optional[List[str]] = None) -> int:
     args = _parser().parse_args(argv)
     try:
         client = Client(args.endpoint)
-        filters = {k: getattr(args, k, None) for k in ("domain", "product_line", "source")}
+        filters: Dict[str, Any] = {k: getattr(args, k, None) for k in ("domain", "product_line", "source")}
         if args.command == "list":
             devices = client.list_devices(**filters)
             _print(args, devices, devices)

@@ -9,7 +9,8 @@ import time
 import urllib.parse
 from typing import Any, Dict, Optional
 
-from ._client import Client, Device, RSDiscoveryError, _check_seconds
+from ._client import Client, Device, RSDiscoveryError
+from ._query import _check_seconds
 
 __all__ = ["OpenError", "Pyrealsense2Missing", "NotANetworkCamera", "DeviceGone", "NotReady"]
 

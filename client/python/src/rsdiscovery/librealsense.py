@@ -32,7 +32,7 @@ __all__ = ["device", "context_settings", "OpenError", "Pyrealsense2Missing", "De
 
 def _pyrealsense2() -> Any:
     try:
-        import pyrealsense2  # type: ignore[import-not-found]
+        import pyrealsense2  # type: ignore[import-not-found, import-untyped, unused-ignore]
     except ImportError as e:
         raise Pyrealsense2Missing("rsdiscovery.librealsense needs pyrealsense2: install the optional extra: "
                                   "pip install 'rsdiscovery[realdds]' (from the repository: "
@@ -62,8 +62,8 @@ def _matcher(rs: Any, cam: Device) -> Callable[[Any], bool]:
     def match(d: Any) -> bool:
         try:
             if network:
-                return info(d, rs.camera_info.physical_port) == root
-            return serial is not None and info(d, rs.camera_info.serial_number) == serial
+                return bool(info(d, rs.camera_info.physical_port) == root)
+            return serial is not None and bool(info(d, rs.camera_info.serial_number) == serial)
         except RuntimeError:  # a device that went away while we looked
             return False
     return match

@@ -24,7 +24,8 @@ import threading
 import time
 from typing import Any, Dict, NamedTuple, Optional, Set, Tuple
 
-from ._client import Device, _check_seconds
+from ._client import Device
+from ._query import _check_seconds
 from ._open import (
     DeviceGone,
     NotANetworkCamera,
@@ -64,7 +65,7 @@ last_open: Dict[str, Any] = {}
 
 def _pyrealdds() -> Any:
     try:
-        from pyrealsense2 import pyrealdds  # type: ignore[import-not-found]
+        from pyrealsense2 import pyrealdds  # type: ignore[import-not-found, import-untyped, unused-ignore]
     except ImportError as e:
         have = "pyrealsense2 is installed but has no pyrealdds (it needs 2.56 or later, built with DDS)" \
             if "pyrealsense2" in sys.modules or _importable("pyrealsense2") else "pyrealsense2 is not installed"
@@ -228,7 +229,7 @@ def open(device: Any, *, participant: Any = None, timeout: float = 5.0, endpoint
             for c, probe in candidates:
                 if probe.notification():
                     stage = "matching"
-                    if probe.control() or time.monotonic() - probe.notification_at > _CONTROL_GRACE:
+                    if probe.control() or time.monotonic() - (probe.notification_at or 0.0) > _CONTROL_GRACE:
                         winner = (c, probe)
                         break
             if winner:
@@ -258,7 +259,8 @@ def open(device: Any, *, participant: Any = None, timeout: float = 5.0, endpoint
             last_open["replaced"] = True
         _matched.add((str(p.guid()), root))
     losers = [c for c, _ in candidates[1:] if c is not p] + ([candidates[0][0]] if candidates[0][0] is not p else [])
-    candidates = winner = None
+    candidates.clear()  # drop the probes (and their readers) now
+    winner = None
     # 2. The device: its reader is matched to the server's writer as it is made.
     stage = "initialization"
     dev = dds.device(p, dds.message.device_info.from_json(device_info(cam)))
