@@ -5,17 +5,18 @@ from __future__ import annotations
 import http.client
 import json
 import socket
+import threading
 import time
 import urllib.parse
+import weakref
 from typing import Any, Callable, Dict, Iterator, List, Optional, Tuple
 
 from ._endpoint import Endpoint, _connect_error, _endpoint, _UnixConnection
 from ._errors import (DaemonNotRunning, HTTPError, MalformedReply, NotFound, PermissionDenied, RSDiscoveryError,
                       VersionMismatch)
-from ._query import _COMPLETE_POLL, _check_filters, _check_seconds, _complete, _query
+from ._model import Device, DomainStatus, Health, Participant
+from ._query import _COMPLETE_POLL, Domains, _check_filters, _check_seconds, _complete, _domains, _query
 from ._watch import Event, Watcher, _generate, _SseParser
-
-Device = Dict[str, Any]
 
 __all__ = [
     "Client", "Endpoint", "Event", "Watcher", "RSDiscoveryError", "DaemonNotRunning", "PermissionDenied",
@@ -41,6 +42,11 @@ class Client:
     takes a few seconds after the daemon starts), so that a camera that is there is never
     reported missing just because the daemon has not heard from it yet. ``0``: answer at
     once from whatever the table holds.
+
+    Each request is a connection of its own; what stays open are the watches (:meth:`watch`,
+    :meth:`watcher`, :meth:`wait_for` while it waits). :meth:`close`, or leaving a ``with
+    Client(...) as client:`` block, ends every watch made through the client that still
+    runs, and a request after it raises :class:`RSDiscoveryError`.
     """
 
     def __init__(self, endpoint: "Endpoint | str | None" = None, timeout: float = 10.0,
@@ -50,6 +56,40 @@ class Client:
         self.endpoint = _endpoint(endpoint)
         self.timeout = timeout
         self.complete_timeout = complete_timeout
+        self._lock = threading.Lock()
+        self._watchers: "weakref.WeakSet[Watcher]" = weakref.WeakSet()
+        self._closed = False
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called."""
+        return self._closed
+
+    def close(self) -> None:
+        """Ends every watch made through this client that still runs (their iterators and
+        generators end, their connections close); later requests raise. Safe more than once."""
+        with self._lock:
+            self._closed = True
+            running = list(self._watchers)
+            self._watchers.clear()
+        for w in running:
+            w.close()
+
+    def _track(self, w: Watcher) -> None:
+        with self._lock:
+            if self._closed:
+                raise RSDiscoveryError(f"this client of rs-discoveryd at {self.endpoint} is closed")
+            self._watchers.add(w)
+
+    def _untrack(self, w: Watcher) -> None:
+        with self._lock:
+            self._watchers.discard(w)
 
     def _complete_deadline(self) -> float:
         return time.monotonic() + max(self.complete_timeout or 0, 0)
@@ -64,6 +104,8 @@ class Client:
             time.sleep(min(left, _COMPLETE_POLL))
 
     def _connection(self, timeout: float) -> http.client.HTTPConnection:
+        if self._closed:
+            raise RSDiscoveryError(f"this client of rs-discoveryd at {self.endpoint} is closed")
         if self.endpoint.path is not None:
             return _UnixConnection(self.endpoint.path, timeout)
         return http.client.HTTPConnection(self.endpoint.host or "", self.endpoint.port, timeout=timeout)
@@ -125,21 +167,22 @@ class Client:
                                  "did not return a JSON object")
         return doc
 
-    def list_devices(self, domain: Optional[int] = None, product_line: Optional[str] = None,
+    def list_devices(self, domain: Domains = None, product_line: Optional[str] = None,
                      source: Optional[str] = None, *, serial: Optional[str] = None, name: Optional[str] = None,
                      address: Optional[str] = None) -> List[Device]:
-        """The devices the daemon knows now, optionally filtered (DDS domain, product line,
-        ``dds``/``usb``, serial, a part of the name, an address of the camera's server; the
-        daemon filters, values in any case). Waits for the complete table first
+        """The devices the daemon knows now, as :class:`Device`, optionally filtered: DDS
+        ``domain`` (one id, or several: ``domain=[1, 2]``, as ``rs-discover list -d 1 -d 2``),
+        product line, ``dds``/``usb``, serial, a part of the name, an address of the camera's
+        server; the daemon filters, values in any case. Waits for the complete table first
         (``complete_timeout``)."""
         return self._list((domain, product_line, source, serial, name, address), self._complete_deadline())
 
     def _list(self, filters: Tuple[Any, ...], deadline: float) -> List[Device]:
         path = "/v1/devices" + _query(*filters)
         devices = self._get_complete_json(path, deadline).get("devices")
-        if not isinstance(devices, list) or not all(isinstance(d, dict) and "id" in d for d in devices):
+        if not isinstance(devices, list):
             raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: no list of devices")
-        return devices
+        return [Device.from_json(d) for d in devices]
 
     def get_device(self, device_id: str) -> Device:
         """One device by its id, serial or topic-root (the daemon looks it up); raises
@@ -169,11 +212,7 @@ class Client:
             raise NotFound(str(reply.get("error") or f"{device_id!r} names several devices"), ids)
         if status != 200:
             raise self._status_error(path, status, body)
-        doc = self._json_object(path, body)
-        if "id" not in doc:
-            raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: GET {path} "
-                                 "returned a device without an id")
-        return doc
+        return Device.from_json(self._json_object(path, body))
 
     def describe_device(self, device_id: str, timeout: float = 35.0) -> Dict[str, Any]:
         """What a network camera can do (Camera Discovery), by id, serial or topic-root:
@@ -213,39 +252,42 @@ class Client:
                                 f"{message or 'HTTP %d' % status}", status)
             raise self._status_error(path, status, body)
 
-    def domains(self) -> List[Dict[str, Any]]:
-        """Per-domain status: state, participant GUID, devices, accepted and rejected messages."""
+    def domains(self) -> List[DomainStatus]:
+        """Every DDS domain the daemon joined, as a :class:`DomainStatus`: its state, the
+        daemon's participant GUID, devices, accepted and rejected messages."""
         doms = self._get_json("/v1/domains").get("domains")
         if not isinstance(doms, list):
             raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: no list of domains")
-        return doms
+        return [DomainStatus.from_json(d) for d in doms]
 
-    def participants(self, domain: Optional[int] = None, state: Optional[str] = None) -> List[Dict[str, Any]]:
-        """Every DDS participant the daemon hears (``/v1/participants``): realdds servers,
-        librealsense and ROS programs, other DDS tools, with ``vendor``, ``addresses``,
-        ``devices``, ``state`` ("alive" or "gone") and more; alive ones first."""
-        _check_filters(domain, None, None)
-        if state is not None and (not isinstance(state, str) or state.lower() not in ("alive", "gone")):
-            raise ValueError(f"state must be 'alive' or 'gone', not {state!r}")
-        params = [("domain", str(domain))] if domain is not None else []
-        params += [("state", state.lower())] if state is not None else []
+    def participants(self, domain: Domains = None, state: Optional[str] = "alive") -> List[Participant]:
+        """The DDS participants the daemon hears (``/v1/participants``), as
+        :class:`Participant`: realdds servers, librealsense and ROS programs, other DDS tools.
+        Like ``rs-discover participants``, only those alive now unless asked: ``state`` is
+        ``"alive"`` (the default), ``"gone"`` (the latest 256 per domain that went), or None
+        (or ``"all"``) for both, alive ones first. ``domain``: one DDS domain or several."""
+        if state is not None and (not isinstance(state, str) or state.lower() not in ("alive", "gone", "all")):
+            raise ValueError(f"state must be 'alive', 'gone' or 'all' (or None), not {state!r}")
+        params = [("domain", str(d)) for d in _domains(domain)]
+        params += [("state", state.lower())] if state is not None and state.lower() != "all" else []
         path = "/v1/participants" + ("?" + urllib.parse.urlencode(params) if params else "")
         found = self._get_json(path).get("participants")
         if not isinstance(found, list):
             raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: no list of participants")
-        return found
+        return [Participant.from_json(p) for p in found]
 
-    def health(self) -> Dict[str, Any]:
-        """``{"status": "ok", "version": ..., "devices": N, "complete": true, ...}``; ``complete`` is
-        false while the daemon's first discovery still runs (``devices`` is not final then)."""
-        return self._get_json("/healthz")
+    def health(self) -> Health:
+        """The daemon's ``/healthz`` as a :class:`Health`: ``status`` "ok", ``version``,
+        ``devices``, ``complete`` (false while the daemon's first discovery still runs:
+        ``devices`` is not final then), ``usb``."""
+        return Health.from_json(self._get_json("/healthz"))
 
     def watcher(self, **kwargs: Any) -> Watcher:
         """A :class:`Watcher` (pull with timeouts); keyword arguments as :meth:`watch`."""
         return Watcher(self, **kwargs)
 
     def watch(self, initial: bool = False, last_event_id: Optional[int] = None, reconnect: bool = True,
-              domain: Optional[int] = None, product_line: Optional[str] = None,
+              domain: Domains = None, product_line: Optional[str] = None,
               source: Optional[str] = None, complete_timeout: float = 10.0, *, serial: Optional[str] = None,
               name: Optional[str] = None, address: Optional[str] = None) -> Iterator[Event]:
         """A generator of :class:`Event` that runs until closed (``break`` out, or ``close()``).
@@ -263,7 +305,7 @@ class Client:
         return _generate(w)
 
     def wait_for(self, predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0,
-                 count: int = 1, domain: Optional[int] = None, product_line: Optional[str] = None,
+                 count: int = 1, domain: Domains = None, product_line: Optional[str] = None,
                  source: Optional[str] = None, *, serial: Optional[str] = None, name: Optional[str] = None,
                  address: Optional[str] = None) -> Device:
         """Waits until ``count`` devices matching the filters and ``predicate`` are present;
@@ -275,6 +317,7 @@ class Client:
         _check_seconds("timeout", timeout)
         if isinstance(count, bool) or not isinstance(count, int) or count < 1:
             raise ValueError(f"count must be a whole number >= 1, not {count!r}")
+        domain = _domains(domain) or None  # once: an iterator is empty the second time
         filters = (domain, product_line, source, serial, name, address)
         _check_filters(*filters)
 
@@ -303,7 +346,7 @@ class Client:
 
 # ---- module-level shortcuts ----------------------------------------------------------------
 
-def list_devices(domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
+def list_devices(domain: Domains = None, product_line: Optional[str] = None, source: Optional[str] = None,
                  endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0, *,
                  serial: Optional[str] = None, name: Optional[str] = None,
                  address: Optional[str] = None) -> List[Device]:
@@ -324,24 +367,25 @@ def describe_device(device_id: str, endpoint: "Endpoint | str | None" = None, ti
     return Client(endpoint).describe_device(device_id, timeout)
 
 
-def domains(endpoint: "Endpoint | str | None" = None) -> List[Dict[str, Any]]:
+def domains(endpoint: "Endpoint | str | None" = None) -> List[DomainStatus]:
     """Per-domain status (see :meth:`Client.domains`)."""
     return Client(endpoint).domains()
 
 
-def participants(domain: Optional[int] = None, state: Optional[str] = None,
-                 endpoint: "Endpoint | str | None" = None) -> List[Dict[str, Any]]:
-    """Every DDS participant the daemon hears (see :meth:`Client.participants`)."""
+def participants(domain: Domains = None, state: Optional[str] = "alive",
+                 endpoint: "Endpoint | str | None" = None) -> List[Participant]:
+    """The DDS participants the daemon hears, alive ones unless ``state`` says otherwise
+    (see :meth:`Client.participants`)."""
     return Client(endpoint).participants(domain, state)
 
 
-def health(endpoint: "Endpoint | str | None" = None) -> Dict[str, Any]:
+def health(endpoint: "Endpoint | str | None" = None) -> Health:
     """The daemon's /healthz."""
     return Client(endpoint).health()
 
 
 def wait_for(predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0, count: int = 1,
-             domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
+             domain: Domains = None, product_line: Optional[str] = None, source: Optional[str] = None,
              endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0, *,
              serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None) -> Device:
     """Waits for a device; raises :class:`TimeoutError` (see :meth:`Client.wait_for`)."""
@@ -351,7 +395,7 @@ def wait_for(predicate: Optional[Callable[[Device], bool]] = None, timeout: floa
 
 
 def watch(initial: bool = False, last_event_id: Optional[int] = None, reconnect: bool = True,
-          domain: Optional[int] = None, product_line: Optional[str] = None, source: Optional[str] = None,
+          domain: Domains = None, product_line: Optional[str] = None, source: Optional[str] = None,
           endpoint: "Endpoint | str | None" = None, complete_timeout: float = 10.0, *,
           serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None) -> Iterator[Event]:
     """A resumable generator of events (see :meth:`Client.watch`)."""

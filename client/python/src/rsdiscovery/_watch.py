@@ -14,12 +14,11 @@ from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Optional, Tuple
 
 from ._endpoint import _connect_error
 from ._errors import DaemonNotRunning, HTTPError, MalformedReply, RSDiscoveryError
-from ._query import _COMPLETE_POLL, _check_filters, _check_seconds, _complete, _query, _same
+from ._model import Device
+from ._query import _COMPLETE_POLL, Domains, _check_filters, _domains, _check_seconds, _complete, _query, _same
 
 if TYPE_CHECKING:
     from ._client import Client
-
-Device = Dict[str, Any]
 
 class _Closed(RSDiscoveryError):
     """The watch was closed while it waited; never reaches the caller."""
@@ -27,13 +26,13 @@ class _Closed(RSDiscoveryError):
 
 # ---- events -----------------------------------------------------------------------------
 
-@dataclass
+@dataclass(frozen=True)
 class Event:
     """One change of the device table.
 
     ``type`` is ``added``, ``changed`` or ``removed``; ``id`` the daemon's event id (its
     generation); ``synthetic`` is true for events this package derived from a re-list
-    (after a daemon restart) rather than received; ``device`` the device document (for
+    (after a daemon restart) rather than received; ``device`` the :class:`Device` (for
     ``removed``, as last seen).
     """
 
@@ -119,9 +118,11 @@ class Watcher:
 
     def __init__(self, client: "Client", initial: bool = False, last_event_id: Optional[int] = None,
                  reconnect: bool = True, idle_timeout: float = 60.0, max_reconnect_delay: float = 2.0,
-                 domain: Optional[int] = None, product_line: Optional[str] = None,
+                 domain: Domains = None, product_line: Optional[str] = None,
                  source: Optional[str] = None, complete_timeout: float = 10.0, *, serial: Optional[str] = None,
                  name: Optional[str] = None, address: Optional[str] = None) -> None:
+        # The domains once: an iterator given as domain= would be empty at the second request.
+        domain = _domains(domain) or None
         _check_filters(domain, product_line, source, serial, name, address)
         _check_seconds("complete_timeout", complete_timeout)
         _check_seconds("idle_timeout", idle_timeout, allow_zero=False)
@@ -148,6 +149,7 @@ class Watcher:
         self._started = threading.Event()
         self._start_error: Optional[BaseException] = None
         self._thread = threading.Thread(target=self._run, name="rsdiscovery-watch", daemon=True)
+        client._track(self)  # so that closing the client closes its watches
         self._thread.start()
         self._started.wait()
         if self._start_error is not None:
@@ -164,7 +166,7 @@ class Watcher:
         """The view as tracked now (matching the watch's filters)."""
         with self._lock:
             # The daemon filtered the list and the stream: the view holds matching devices only.
-            return [dict(d) for d in self._known.values()]
+            return list(self._known.values())
 
     def next(self, timeout: Optional[float] = None) -> Optional[Event]:
         """The next event; ``None`` when ``timeout`` seconds pass first or the watch was closed.
@@ -196,6 +198,7 @@ class Watcher:
     def close(self) -> None:
         """Ends the watch; safe from any thread, and more than once."""
         self._closed.set()
+        self._client._untrack(self)
         with self._lock:
             conn = self._conn
         if conn is not None and conn.sock is not None:
@@ -214,7 +217,7 @@ class Watcher:
 
     # -- the thread
     def _emit(self, kind: str, doc: Device, ident: int, synthetic: bool) -> None:
-        key = doc["id"]
+        key = doc.id
         with self._lock:
             old = self._known.get(key)
             if kind == "removed":
@@ -222,7 +225,7 @@ class Watcher:
                     return
                 self._known.pop(key, None)
             else:
-                if old is not None and _same(old, doc):
+                if old is not None and _same(old.raw, doc.raw):
                     self._known[key] = doc
                     return
                 kind = "changed" if old is not None else "added"
@@ -257,7 +260,7 @@ class Watcher:
                                  "/v1/devices has no list of devices")
         generation = reply.get("generation")
         generation = generation if isinstance(generation, int) and generation >= 0 else None
-        fresh = {d["id"]: d for d in devices}
+        fresh = {d.id: d for d in map(Device.from_json, devices)}
         with self._lock:
             if generation is not None:
                 self._last_id = max(self._last_id or 0, generation)
@@ -294,11 +297,12 @@ class Watcher:
         if not isinstance(doc, dict) or not isinstance(doc.get("id"), str):
             raise MalformedReply(f"malformed event from rs-discoveryd at {self._client.endpoint}: "
                                  f"{kind!r} without a device document")
+        device = Device.from_json(doc)
         if num is not None:
             if num <= self._listed_at:
                 return  # in the view already: the list after a resync was taken after it
             self._last_id = num
-        self._emit(kind, doc, num or 0, False)
+        self._emit(kind, device, num or 0, False)
 
     def _connect_once(self) -> bool:
         """One connection; returns whether it got as far as an open stream."""

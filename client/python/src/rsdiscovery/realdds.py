@@ -24,7 +24,7 @@ import threading
 import time
 from typing import Any, Dict, NamedTuple, Optional, Set, Tuple
 
-from ._client import Device
+from ._model import Device
 from ._query import _check_seconds
 from ._open import (
     DeviceGone,
@@ -186,18 +186,19 @@ def open(device: Any, *, participant: Any = None, timeout: float = 5.0, endpoint
     cam = resolve(device, endpoint, timeout)
     resolved = time.monotonic() - t0
     if not is_network(cam):
-        seen = ", ".join(cam.get("sources") or [str(cam.get("source"))])
-        raise NotANetworkCamera(f"camera {cam['id']} ({cam.get('name')}) is not a network camera: rs-discoveryd sees "
+        seen = ", ".join(cam.sources)
+        raise NotANetworkCamera(f"camera {cam.id} ({cam.name}) is not a network camera: rs-discoveryd sees "
                                 f"it on {seen}; open it with rsdiscovery.librealsense.device()")
     dds = _pyrealdds()
-    domain, root = cam["domain"], cam["topic-root"]
+    assert cam.domain is not None and cam.topic_root is not None  # is_network
+    domain, root = cam.domain, cam.topic_root
     deadline = t0 + timeout
     still = StillListed(cam, endpoint)
-    server = (cam.get("server") or {}).get("participant-name")
+    server = cam.server.participant_name if cam.server is not None else None
 
     marks: Dict[str, float] = {"resolved": resolved, "imported": time.monotonic() - t0}
     last_open.clear()
-    last_open.update(camera=cam["id"], marks=marks)
+    last_open.update(camera=cam.id, marks=marks)
     if participant is not None:
         p, fresh = participant, False
     else:
@@ -295,7 +296,7 @@ def _not_ready(cam: Device, stage: str, elapsed: float, timeout: float) -> NotRe
         "initialization": "its server did not send its whole initialization set (device header and options, "
                           "every stream's header and options)",
     }[stage]
-    return NotReady(f"camera {cam['id']} ({cam.get('name')}) not ready within {timeout:g} s: {what}", stage, elapsed)
+    return NotReady(f"camera {cam.id} ({cam.name}) not ready within {timeout:g} s: {what}", stage, elapsed)
 
 
 class Frame(NamedTuple):
