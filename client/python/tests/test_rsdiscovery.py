@@ -252,7 +252,7 @@ def test_an_endless_event_ends_the_watch(tmp_path):
 
 
 def test_a_character_split_between_two_reads_of_the_stream_stays_one():
-    from rsdiscovery._client import _SseParser
+    from rsdiscovery._watch import _SseParser
 
     text = 'event: added\nid: 7\ndata: {"id":"a","name":"Kamera Gr\u00fc\u00dfe \u2014 \U0001F4F7"}\n\n'.encode()
     for cut in range(1, len(text)):  # every place a read can end, inside a character too

@@ -16,7 +16,7 @@ from ._errors import (DaemonNotRunning, HTTPError, MalformedReply, NotFound, Per
                       VersionMismatch)
 from ._model import Device, DomainStatus, Health, Participant
 from ._query import _COMPLETE_POLL, Domains, _check_filters, _check_seconds, _complete, _domains, _query
-from ._watch import Event, Watcher, _generate, _SseParser
+from ._watch import Event, Watcher, _generate
 
 __all__ = [
     "Client", "Endpoint", "Event", "Watcher", "RSDiscoveryError", "DaemonNotRunning", "PermissionDenied",

@@ -25,7 +25,8 @@ import time
 from typing import Any, Callable, Dict, List, Mapping, Tuple, Union
 
 from ._model import Device
-from ._open import DeviceGone, as_device, NotReady, OpenError, Pyrealsense2Missing, StillListed, gone_error, is_network, resolve
+from ._open import (DeviceGone, NotReady, OpenError, Pyrealsense2Missing, StillListed, as_device, gone_error,
+                    is_network, resolve)
 
 __all__ = ["device", "context_settings", "OpenError", "Pyrealsense2Missing", "DeviceGone", "NotReady"]
 
