@@ -343,7 +343,6 @@ class Client:
                 w.next(timeout=left)
 
 
-
 # ---- module-level shortcuts ----------------------------------------------------------------
 
 def list_devices(domain: Domains = None, product_line: Optional[str] = None, source: Optional[str] = None,

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from typing import List, Optional
 
+
 class RSDiscoveryError(Exception):
     """Base of every error this package raises."""
 

@@ -8,6 +8,7 @@ from typing import Any, Dict, Iterable, List, Mapping, Optional, Tuple, Union
 #: None for every domain the daemon joined.
 Domains = Union[int, Iterable[int], None]
 
+
 def _domains(domain: Domains) -> Tuple[int, ...]:
     """The domains a ``domain`` argument names: none (None), one, or several (any iterable of
     them; the daemon takes the query parameter repeated). A bad one is the caller's mistake:
@@ -75,4 +76,3 @@ def _complete(doc: Dict[str, Any]) -> bool:
 # How often an answer from an incomplete table is asked again, in seconds. The first
 # discovery ends a few seconds after the daemon starts, at no moment a client can know.
 _COMPLETE_POLL = 0.05
-

@@ -15,10 +15,11 @@ from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Optional, Tuple
 from ._endpoint import _connect_error
 from ._errors import DaemonNotRunning, HTTPError, MalformedReply, RSDiscoveryError
 from ._model import Device
-from ._query import _COMPLETE_POLL, Domains, _check_filters, _domains, _check_seconds, _complete, _query, _same
+from ._query import _COMPLETE_POLL, Domains, _check_filters, _check_seconds, _complete, _domains, _query, _same
 
 if TYPE_CHECKING:
     from ._client import Client
+
 
 class _Closed(RSDiscoveryError):
     """The watch was closed while it waited; never reaches the caller."""
