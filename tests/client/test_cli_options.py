@@ -73,10 +73,10 @@ def test_filters_by_serial_name_and_address(two_domains):
     api = d.get_json(f"/v1/devices?name=D435")["devices"]
     assert json.loads(rs_discover("list", "--json", "--name", "D435", endpoint=ep).stdout)["devices"] == api
     # The Python package passes the same filters to the daemon.
-    assert rsdiscovery.list_devices(name="d435", endpoint=ep) == api
-    assert [x["serial"] for x in rsdiscovery.list_devices(serial=first["serial"], endpoint=ep)] == [first["serial"]]
+    assert [x.raw for x in rsdiscovery.list_devices(name="d435", endpoint=ep)] == api
+    assert [x.serial for x in rsdiscovery.list_devices(serial=first["serial"], endpoint=ep)] == [first["serial"]]
     assert len(rsdiscovery.list_devices(address=address, endpoint=ep)) == 2
-    assert rsdiscovery.Client(ep).wait_for(timeout=5, count=1, name="D435")["serial"] == second["serial"]
+    assert rsdiscovery.Client(ep).wait_for(timeout=5, count=1, name="D435").serial == second["serial"]
     with pytest.raises(ValueError):
         rsdiscovery.list_devices(serial="", endpoint=ep)
 

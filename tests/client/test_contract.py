@@ -43,7 +43,7 @@ def test_filters_are_the_daemons_and_ignore_case(daemon, realdds_server, domain)
     try:
         realdds_server(domain, [device_info(1), device_info(2)], name="filter-server")
         python_wait.join(40)
-        assert found and found[0] is not None and found[0]["product-line"] == "D400"
+        assert found and found[0] is not None and found[0].product_line == "D400"
         out, err = waiting.communicate(timeout=40)
         assert waiting.returncode == 0, err
         assert len(out.split()) == 2
@@ -52,7 +52,7 @@ def test_filters_are_the_daemons_and_ignore_case(daemon, realdds_server, domain)
                  what="two added events through watch --product-line d400")
         assert sorted(e["device"]["id"] for e in added) == d.device_ids()
         # The same one rule for the source's case, and for what a route does not take.
-        assert [x["id"] for x in client.list_devices(source="DDS")] == d.device_ids()
+        assert [x.id for x in client.list_devices(source="DDS")] == d.device_ids()
         assert rs_discover("list", "-q", "--product-line", "D400", endpoint=ep).stdout.split() == d.device_ids()
         for path in ("/healthz", "/metrics", "/v1/domains", "/v1/devices?domian=1",
                      "/v1/devices/" + d.device_ids()[0] + "?x=1"):
@@ -75,7 +75,7 @@ def test_lookup_by_id_serial_or_topic_root_everywhere(daemon, realdds_server, do
     client = rsdiscovery.Client("unix:" + d.socket)
     for key in (dev["id"], one["serial"], one["topic-root"]):
         assert d.get_json("/v1/devices/" + urllib.parse.quote(key, safe=""))["id"] == dev["id"], key
-        assert client.get_device(key)["id"] == dev["id"], key
+        assert client.get_device(key).id == dev["id"], key
         r = rs_discover("get", "--json", key, endpoint=ep)
         assert r.returncode == 0, (key, r.stderr)
         assert json.loads(r.stdout)["id"] == dev["id"]

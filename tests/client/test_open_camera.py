@@ -250,7 +250,7 @@ def test_librealsense_device_errors(camera):
     camera.server.command(cmd="remove", **{"topic-root": info["topic-root"]})
     wait_for(lambda: gone_id not in camera.daemon.device_ids(), 20, what="the second camera removed")
     code = ("import sys, json, rsdiscovery\n"
-            f"sys.argv[1:] = [{json.dumps(json.dumps(doc))}, 'no', '10']\n")
+            f"sys.argv[1:] = [{json.dumps(json.dumps(doc.raw))}, 'no', '10']\n")
     r, out = run_python(code + LIBREALSENSE_DEVICE.replace("device(key,", "device(json.loads(key),"), camera.endpoint)
     assert out and out.get("error") == "DeviceGone", r.stdout[-2000:] + r.stderr[-2000:]
     assert out["s"] < 3

@@ -75,8 +75,8 @@ def test_library_participants(network):
 def test_python_participants(network):
     d, domain, _ = network
     found = rsdiscovery.participants(endpoint="unix:" + d.socket)
-    assert steady(found) == steady(d.get_json("/v1/participants")["participants"])
-    assert [p["name"] for p in rsdiscovery.participants(domain=domain, state="ALIVE", endpoint="unix:" + d.socket)] \
+    assert steady([p.raw for p in found]) == steady(d.get_json("/v1/participants?state=alive")["participants"])
+    assert [p.name for p in rsdiscovery.participants(domain=domain, state="ALIVE", endpoint="unix:" + d.socket)] \
         == ["bench-server"]
     with pytest.raises(ValueError):
         rsdiscovery.participants(state="sleeping", endpoint="unix:" + d.socket)

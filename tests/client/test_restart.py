@@ -173,11 +173,11 @@ def test_list_and_get_right_after_a_restart_show_the_camera(daemon, realdds_serv
             assert r.returncode == 0, r.stderr
             assert f"ID:           {cam(domain, 44)}" in r.stdout
         elif how == "python list":
-            assert [x["id"] for x in rsdiscovery.list_devices(endpoint=ep)] == [cam(domain, 44)]
+            assert [x.id for x in rsdiscovery.list_devices(endpoint=ep)] == [cam(domain, 44)]
         elif how == "python get":
-            assert rsdiscovery.get_device(cam(domain, 44), endpoint=ep)["serial"] == "123622270744"
+            assert rsdiscovery.get_device(cam(domain, 44), endpoint=ep).serial == "123622270744"
         else:
-            assert rsdiscovery.wait_for(lambda x: x["serial"] == "123622270744", timeout=20, endpoint=ep)
+            assert rsdiscovery.wait_for(lambda x: x.serial == "123622270744", timeout=20, endpoint=ep)
 
 
 def test_not_waiting_is_said(daemon, domain):

@@ -261,7 +261,7 @@ def test_socket_permissions_follow_the_group(system):
 
 def test_python_client_from_its_package(system):
     c = system
-    r = c.run("python3", "-c", "import rsdiscovery, json; print(json.dumps(rsdiscovery.health()))")
+    r = c.run("python3", "-c", "import rsdiscovery, json; print(json.dumps(rsdiscovery.health().raw))")
     assert json.loads(r.stdout)["status"] == "ok", r.stdout
 
 

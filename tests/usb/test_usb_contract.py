@@ -51,7 +51,7 @@ def test_usb2_link_warning_shows_in_every_client(bed, usb_daemon):  # noqa: F811
     assert "Warning:      " + warning in r.stdout
 
     got = rsdiscovery.Client(ep).get_device(D435_SERIAL)
-    assert got["id"] == D435_ID and got["warnings"] == [warning]
+    assert got.id == D435_ID and got.warnings == (warning,) and got.state == "warning"
     assert d.get_json("/v1/devices/" + D435_SERIAL)["id"] == D435_ID
 
 
@@ -86,7 +86,7 @@ def test_every_kind_of_device_validates_against_the_spec(bed, usb_daemon, realdd
     validate_response("/v1/domains", 200, d.get_json("/v1/domains"))
     # The merged camera is one device to every client, with both parts.
     got = rsdiscovery.Client("unix:" + d.socket).get_device(D455_SERIAL)
-    assert got["id"] == merged["id"] and got["usb"]["port-path"] == "2-1"
+    assert got.id == merged["id"] and got.usb.port_path == "2-1" and got.sources == ("dds", "usb")
     assert json.loads(cli(bed, "get", "--json", D455_SERIAL, endpoint="unix:" + d.socket).stdout)["id"] == \
         merged["id"]
     server.quit()

@@ -39,9 +39,9 @@ def pick(key=None, timeout=10.0):
 
 def main():
     cam = pick(sys.argv[1] if len(sys.argv) > 1 else None)
-    addresses = ", ".join(cam.get("server", {}).get("addresses", [])) or "-"
-    where = f"DDS domain {cam['domain']} at {addresses}" if "domain" in cam else "USB"
-    print(f"{cam['name']} serial {cam.get('serial', '?')} on {where} ({cam['id']})")
+    addresses = ", ".join(cam.server.addresses if cam.server else ()) or "-"
+    where = f"DDS domain {cam.domain} at {addresses}" if cam.domain is not None else "USB"
+    print(f"{cam.name} serial {cam.serial or '?'} on {where} ({cam.id})")
     t0 = time.monotonic()
     try:
         dev = rsdiscovery.realdds.open(cam)

@@ -37,8 +37,8 @@ def pick(key=None, timeout=10.0):
 
 def main():
     cam = pick(sys.argv[1] if len(sys.argv) > 1 else None)
-    where = f"DDS domain {cam['domain']}" if "domain" in cam else "USB"
-    print(f"{cam['name']} serial {cam.get('serial', '?')} on {where} ({cam['id']})")
+    where = f"DDS domain {cam.domain}" if cam.domain is not None else "USB"
+    print(f"{cam.name} serial {cam.serial or '?'} on {where} ({cam.id})")
     t0 = time.monotonic()
     try:
         ctx, dev = rsdiscovery.librealsense.device(cam)

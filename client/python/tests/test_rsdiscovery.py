@@ -33,19 +33,19 @@ def test_list_get_wait_domains_health(daemon_factory, server_factory):
         rsdiscovery.wait_for(timeout=0.3, endpoint=ep)
     assert time.monotonic() - t0 < 3
     server_factory([info(1), info(2)])
-    dev = rsdiscovery.wait_for(lambda x: x.get("serial") == "9876543202", timeout=20, endpoint=ep)
-    assert dev is not None and dev["domain"] == DOMAIN
+    dev = rsdiscovery.wait_for(lambda x: x.serial == "9876543202", timeout=20, endpoint=ep)
+    assert dev is not None and dev.domain == DOMAIN
     assert rsdiscovery.wait_for(timeout=20, count=2, endpoint=ep) is not None
     devices = rsdiscovery.list_devices(endpoint=ep)
-    assert sorted(x["serial"] for x in devices) == ["9876543201", "9876543202"]
+    assert sorted(x.serial for x in devices) == ["9876543201", "9876543202"]
     assert rsdiscovery.list_devices(domain=DOMAIN + 1, endpoint=ep) == []
     assert len(rsdiscovery.list_devices(product_line="D400", source="dds", endpoint=d.url)) == 2
-    got = rsdiscovery.get_device(dev["id"], endpoint=ep)
-    assert got["topic-root"] == "realsense/D455_9876543202" and got["server"]["addresses"]
+    got = rsdiscovery.get_device(dev.id, endpoint=ep)
+    assert got.topic_root == "realsense/D455_9876543202" and got.server and got.server.addresses
     with pytest.raises(rsdiscovery.NotFound):
         rsdiscovery.get_device("nope", endpoint=ep)
-    assert rsdiscovery.domains(endpoint=ep)[0]["domain"] == DOMAIN
-    assert rsdiscovery.health(endpoint=ep)["status"] == "ok"
+    assert rsdiscovery.domains(endpoint=ep)[0].domain == DOMAIN
+    assert rsdiscovery.health(endpoint=ep).status == "ok"
 
 
 def test_watch_resumes_across_a_daemon_restart(daemon_factory, server_factory):
@@ -60,9 +60,9 @@ def test_watch_resumes_across_a_daemon_restart(daemon_factory, server_factory):
     def fold(e):
         seen.append(e)
         if e.type == "removed":
-            view.pop(e.device["id"], None)
+            view.pop(e.device.id, None)
         else:
-            view[e.device["id"]] = e.device
+            view[e.device.id] = e.device
 
     with client.watcher(initial=True) as w:
         e = w.next(10)
@@ -77,7 +77,7 @@ def test_watch_resumes_across_a_daemon_restart(daemon_factory, server_factory):
         srv.command(cmd="add", info=info(13))
         d2 = daemon_factory()
         want = sorted(f"dds-{DOMAIN}-realsense.D455_98765432{n}" for n in (12, 13))
-        wait_until(lambda: sorted(x["id"] for x in rsdiscovery.list_devices(endpoint=ep)) == want,
+        wait_until(lambda: sorted(x.id for x in rsdiscovery.list_devices(endpoint=ep)) == want,
                    what="the restarted daemon's view")
 
         def caught_up():
@@ -87,7 +87,7 @@ def test_watch_resumes_across_a_daemon_restart(daemon_factory, server_factory):
             return sorted(view) == want
 
         wait_until(caught_up, what="the watch's view to match")
-        assert any(e.type == "removed" and e.device["serial"] == "9876543211" for e in seen)
+        assert any(e.type == "removed" and e.device.serial == "9876543211" for e in seen)
         assert w.last_event_id and w.last_event_id > seen[1].id
         d2.stop()
 
@@ -252,7 +252,7 @@ def test_an_endless_event_ends_the_watch(tmp_path):
 
 
 def test_a_character_split_between_two_reads_of_the_stream_stays_one():
-    from rsdiscovery._client import _SseParser
+    from rsdiscovery._watch import _SseParser
 
     text = 'event: added\nid: 7\ndata: {"id":"a","name":"Kamera Gr\u00fc\u00dfe \u2014 \U0001F4F7"}\n\n'.encode()
     for cut in range(1, len(text)):  # every place a read can end, inside a character too

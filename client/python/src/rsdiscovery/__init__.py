@@ -1,7 +1,10 @@
 """Client of rs-discoveryd, the daemon that keeps a live table of Intel RealSense cameras.
 
-Devices are the daemon's JSON documents as dicts (every field verbatim: ``id``, ``name``,
-``serial``, ``domain``, ``topic-root``, ``server`` ...). Standard library only.
+The daemon's documents are frozen, typed objects (:class:`Device`, :class:`Participant`,
+:class:`DomainStatus`, :class:`Health`): the JSON fields as snake_case attributes
+(``dev.serial``, ``dev.topic_root``, ``dev.server.addresses``), and the JSON as the daemon
+sent it in ``raw``. A ``domain`` argument takes one DDS domain id or several. A
+:class:`Client` is a context manager: leaving it ends its watches. Standard library only.
 
 Opening a camera the daemon lists, at once (these need ``pyrealsense2``, the optional extra
 ``rsdiscovery[realdds]``, and import it only when called): ``rsdiscovery.realdds.open`` (a
@@ -29,25 +32,36 @@ from ._client import (
     wait_for,
     watch,
 )
+from ._model import Device, DomainStatus, Health, Interface, Participant, Server, Usb, UsbStatus
 from ._open import DeviceGone, NotANetworkCamera, NotReady, OpenError, Pyrealsense2Missing
+from ._query import Domains
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
     "Client",
     "DaemonNotRunning",
+    "Device",
     "DeviceGone",
+    "DomainStatus",
+    "Domains",
     "Endpoint",
     "Event",
     "HTTPError",
+    "Health",
+    "Interface",
     "MalformedReply",
     "NotANetworkCamera",
     "NotFound",
     "NotReady",
     "OpenError",
+    "Participant",
     "PermissionDenied",
     "Pyrealsense2Missing",
     "RSDiscoveryError",
+    "Server",
+    "Usb",
+    "UsbStatus",
     "VersionMismatch",
     "Watcher",
     "describe_device",

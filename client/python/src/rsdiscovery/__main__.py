@@ -6,12 +6,13 @@ import json
 import sys
 from typing import Any, Dict, List, Optional
 
-from . import (Client, DaemonNotRunning, MalformedReply, NotFound, PermissionDenied, RSDiscoveryError,
+from . import (Client, DaemonNotRunning, Device, MalformedReply, NotFound, PermissionDenied, RSDiscoveryError,
                VersionMismatch, __version__)
 
 
 def _filters(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--domain", type=int, help="only this DDS domain (0-232)")
+    p.add_argument("-d", "--domain", type=int, action="append",
+                   help="only this DDS domain (0-232); repeat for several")
     p.add_argument("--product-line", help="only this product line, e.g. D400 (any case)")
     p.add_argument("--source", choices=["dds", "usb"], type=str.lower, help="only cameras seen by this source")
 
@@ -34,23 +35,21 @@ def _parser() -> argparse.ArgumentParser:
     _filters(sub.add_parser("watch", help="one line per camera added, changed or removed, until Ctrl-C"))
     sub.add_parser("domains", help="the DDS domains the daemon joined")
     pa = sub.add_parser("participants", help="who is on the DDS network (cameras, programs, tools)")
-    pa.add_argument("--domain", type=int, help="only this DDS domain")
-    pa.add_argument("--all", action="store_true", help="also those gone")
+    pa.add_argument("-d", "--domain", type=int, action="append", help="only this DDS domain; repeat for several")
+    pa.add_argument("-a", "--all", action="store_true", help="also those gone")
     sub.add_parser("health", help="the daemon's health")
     return p
 
 
-def _table(devices: List[Dict[str, Any]]) -> str:
+def _table(devices: List[Device]) -> str:
     rows = [("ID", "NAME", "SERIAL", "SOURCE", "STATE")]
     for d in devices:
-        state = "recovery" if d.get("recovery") else "warning" if d.get("warnings") else "ok"
-        rows.append((str(d.get("id", "")), str(d.get("name", "")), str(d.get("serial", "")),
-                     ",".join(d.get("sources") or [str(d.get("source", ""))]), state))
+        rows.append((d.id, d.name, d.serial or "", ",".join(d.sources), d.state))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     return "\n".join("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows)
 
 
-def _print(args: argparse.Namespace, data: Any, devices: Optional[List[Dict[str, Any]]] = None) -> None:
+def _print(args: argparse.Namespace, data: Any, devices: Optional[List[Device]] = None) -> None:
     if args.json or devices is None:
         print(json.dumps(data, indent=None if args.json else 2))
     else:
@@ -61,29 +60,29 @@ def run(argv: Optional[List[str]] = None) -> int:
     args = _parser().parse_args(argv)
     try:
         client = Client(args.endpoint)
-        filters = {k: getattr(args, k, None) for k in ("domain", "product_line", "source")}
+        filters: Dict[str, Any] = {k: getattr(args, k, None) for k in ("domain", "product_line", "source")}
         if args.command == "list":
             devices = client.list_devices(**filters)
-            _print(args, devices, devices)
+            _print(args, [d.raw for d in devices], devices)
         elif args.command == "get":
             devices = [client.get_device(i) for i in args.ids]
-            _print(args, devices if len(devices) > 1 else devices[0], devices)
+            _print(args, [d.raw for d in devices] if len(devices) > 1 else devices[0].raw, devices)
         elif args.command == "wait":
             device = client.wait_for(timeout=args.timeout, count=args.count, **filters)
-            _print(args, device, [device])
+            _print(args, device.raw, [device])
         elif args.command == "watch":
             for e in client.watch(**filters):
                 if args.json:
-                    print(json.dumps({"event": e.type, "id": e.id, "device": e.device}), flush=True)
+                    print(json.dumps({"event": e.type, "id": e.id, "device": e.device.raw}), flush=True)
                 else:
-                    print(f"{e.type:8} {e.device.get('id', '')}  {e.device.get('name', '')}", flush=True)
+                    print(f"{e.type:8} {e.device.id}  {e.device.name}", flush=True)
         elif args.command == "domains":
-            print(json.dumps(client.domains(), indent=None if args.json else 2))
+            print(json.dumps([d.raw for d in client.domains()], indent=None if args.json else 2))
         elif args.command == "participants":
             found = client.participants(args.domain, None if args.all else "alive")
-            print(json.dumps(found, indent=None if args.json else 2))
+            print(json.dumps([p.raw for p in found], indent=None if args.json else 2))
         elif args.command == "health":
-            print(json.dumps(client.health(), indent=None if args.json else 2))
+            print(json.dumps(client.health().raw, indent=None if args.json else 2))
     except KeyboardInterrupt:
         return 0
     except ValueError as e:  # a bad argument the parser let through (a domain of 300)

@@ -7,9 +7,12 @@ from __future__ import annotations
 import json
 import time
 import urllib.parse
-from typing import Any, Dict, Optional
+from typing import Any, Dict, Mapping, Optional, Union
 
-from ._client import Client, Device, RSDiscoveryError, _check_seconds
+from ._client import Client
+from ._errors import MalformedReply, RSDiscoveryError
+from ._model import Device
+from ._query import _check_seconds
 
 __all__ = ["OpenError", "Pyrealsense2Missing", "NotANetworkCamera", "DeviceGone", "NotReady"]
 
@@ -58,33 +61,44 @@ _DAEMON_FIELDS = frozenset({"id", "source", "sources", "domain", "first-seen", "
                             "warnings", "merged-into", "state"})
 
 
-def device_info(device: Device) -> Dict[str, Any]:
+def as_device(device: Union[Device, Mapping[str, Any]]) -> Device:
+    """A Device, also from its JSON (a dict, as the daemon or ``rs-discover --json`` gave it)."""
+    return device if isinstance(device, Device) else Device.from_json(device)
+
+
+def device_info(device: Union[Device, Mapping[str, Any]]) -> Dict[str, Any]:
     """The camera's realdds device-info, as its server sent it, from the daemon's document."""
-    info = {k: v for k, v in device.items() if k not in _DAEMON_FIELDS}
+    info = {k: v for k, v in as_device(device).raw.items() if k not in _DAEMON_FIELDS}
     if not info.get("recovery"):
         info.pop("recovery", None)  # the daemon writes false for every camera; realdds omits it
     return info
 
 
 def is_network(device: Device) -> bool:
-    return "dds" in (device.get("sources") or [device.get("source")]) and isinstance(device.get("domain"), int) \
-        and isinstance(device.get("topic-root"), str)
+    return device.is_network
 
 
 def is_usb(device: Device) -> bool:
-    return "usb" in (device.get("sources") or [device.get("source")])
+    return device.is_usb
 
 
 def resolve(device: Any, endpoint: Any, timeout: Any) -> Device:
     """The daemon's document of the camera: `device` itself when it is one (from
-    list_devices, get_device, wait_for or a watch), else the daemon is asked for the id,
-    serial or topic-root `device` (NotFound when it lists none, or several)."""
+    list_devices, get_device, wait_for or a watch; or its JSON, a dict, as the daemon or
+    ``rs-discover --json`` gave it), else the daemon is asked for the id, serial or topic-root
+    `device` (NotFound when it lists none, or several)."""
     _check_seconds("timeout", timeout, allow_zero=False)
-    if isinstance(device, dict):
-        if not isinstance(device.get("id"), str) or not isinstance(device.get("name"), str):
-            raise ValueError("device must be a camera from rs-discoveryd (a dict with its 'id' and 'name', "
-                             "from list_devices(), get_device() or wait_for()), or its id, serial or topic-root")
+    if isinstance(device, Device):
         return device
+    if isinstance(device, Mapping):
+        try:
+            if not isinstance(device.get("name"), str):
+                raise MalformedReply("no name")
+            return Device.from_json(device)
+        except MalformedReply:
+            raise ValueError("device must be a camera from rs-discoveryd (from list_devices(), get_device() or "
+                             "wait_for(), or its JSON with its 'id' and 'name'), or its id, serial or "
+                             "topic-root") from None
     if isinstance(device, str) and device:
         return Client(endpoint).get_device(device)
     raise ValueError(f"device must be a camera from rs-discoveryd, or its id, serial or topic-root, not {device!r}")
@@ -95,7 +109,7 @@ class StillListed:
     so that a camera that went away is told apart from a slow one."""
 
     def __init__(self, device: Device, endpoint: Any, first: float = 0.5, period: float = 0.5) -> None:
-        self._path = "/v1/devices/" + urllib.parse.quote(device["id"], safe="")
+        self._path = "/v1/devices/" + urllib.parse.quote(device.id, safe="")
         self._endpoint = endpoint
         self._next = time.monotonic() + first
         self._period = period
@@ -121,5 +135,5 @@ class StillListed:
 
 
 def gone_error(device: Device, elapsed: float) -> DeviceGone:
-    return DeviceGone(f"camera {device['id']} ({device.get('name')}) is gone: rs-discoveryd no longer lists it "
+    return DeviceGone(f"camera {device.id} ({device.name}) is gone: rs-discoveryd no longer lists it "
                       f"(after {elapsed:.2f} s)")

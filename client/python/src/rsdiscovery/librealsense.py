@@ -22,17 +22,18 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import Any, Callable, Dict, List, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Tuple, Union
 
-from ._client import Device
-from ._open import DeviceGone, NotReady, OpenError, Pyrealsense2Missing, StillListed, gone_error, is_network, resolve
+from ._model import Device
+from ._open import (DeviceGone, NotReady, OpenError, Pyrealsense2Missing, StillListed, as_device, gone_error,
+                    is_network, resolve)
 
 __all__ = ["device", "context_settings", "OpenError", "Pyrealsense2Missing", "DeviceGone", "NotReady"]
 
 
 def _pyrealsense2() -> Any:
     try:
-        import pyrealsense2  # type: ignore[import-not-found]
+        import pyrealsense2  # type: ignore[import-not-found, import-untyped, unused-ignore]
     except ImportError as e:
         raise Pyrealsense2Missing("rsdiscovery.librealsense needs pyrealsense2: install the optional extra: "
                                   "pip install 'rsdiscovery[realdds]' (from the repository: "
@@ -41,12 +42,13 @@ def _pyrealsense2() -> Any:
     return pyrealsense2
 
 
-def context_settings(cam: Device) -> Dict[str, Any]:
-    """The librealsense context settings for camera `cam` (a device from the daemon): DDS on
-    the camera's domain with the query wait off, or DDS off for a USB camera. The same JSON
-    serves ``rs2::context(json)`` in C++ (see the README)."""
+def context_settings(cam: Union[Device, Mapping[str, Any]]) -> Dict[str, Any]:
+    """The librealsense context settings for camera `cam` (a device from the daemon, or its
+    JSON): DDS on the camera's domain with the query wait off, or DDS off for a USB camera.
+    The same JSON serves ``rs2::context(json)`` in C++ (see the README)."""
+    cam = as_device(cam)
     if is_network(cam):
-        return {"dds": {"enabled": True, "domain": cam["domain"], "query-devices-max": 0}}
+        return {"dds": {"enabled": True, "domain": cam.domain, "query-devices-max": 0}}
     return {"dds": {"enabled": False}}
 
 
@@ -54,7 +56,7 @@ def _matcher(rs: Any, cam: Device) -> Callable[[Any], bool]:
     """Which rs.device is `cam`: a DDS camera by its topic-root (librealsense's physical port
     of a DDS device, unique on its domain), else by serial."""
     network = is_network(cam)
-    root, serial = cam.get("topic-root"), cam.get("serial")
+    root, serial = cam.topic_root, cam.serial
 
     def info(d: Any, what: Any) -> Any:
         return d.get_info(what) if d.supports(what) else None
@@ -62,8 +64,8 @@ def _matcher(rs: Any, cam: Device) -> Callable[[Any], bool]:
     def match(d: Any) -> bool:
         try:
             if network:
-                return info(d, rs.camera_info.physical_port) == root
-            return serial is not None and info(d, rs.camera_info.serial_number) == serial
+                return bool(info(d, rs.camera_info.physical_port) == root)
+            return serial is not None and bool(info(d, rs.camera_info.serial_number) == serial)
         except RuntimeError:  # a device that went away while we looked
             return False
     return match
@@ -86,8 +88,8 @@ def device(device_or_serial: Any, *, timeout: float = 5.0, endpoint: Any = None)
     t0 = time.monotonic()
     cam = resolve(device_or_serial, endpoint, timeout)
     rs = _pyrealsense2()
-    if not is_network(cam) and not cam.get("serial"):
-        raise OpenError(f"camera {cam['id']} has no serial: librealsense cannot be asked for it")
+    if not is_network(cam) and not cam.serial:
+        raise OpenError(f"camera {cam.id} has no serial: librealsense cannot be asked for it")
     settings = context_settings(cam)
     try:
         ctx = rs.context(settings)
@@ -121,8 +123,8 @@ def device(device_or_serial: Any, *, timeout: float = 5.0, endpoint: Any = None)
         if now >= deadline:
             if still.gone(force=True):
                 raise gone_error(cam, now - t0)
-            where = f"on DDS domain {cam['domain']}" if is_network(cam) else "on USB"
-            raise NotReady(f"librealsense did not list camera {cam['id']} ({cam.get('name')}) {where} within "
+            where = f"on DDS domain {cam.domain}" if is_network(cam) else "on USB"
+            raise NotReady(f"librealsense did not list camera {cam.id} ({cam.name}) {where} within "
                            f"{timeout:g} s", "listing", now - t0)
         if still.gone():
             raise gone_error(cam, now - t0)

@@ -24,7 +24,8 @@ import threading
 import time
 from typing import Any, Dict, NamedTuple, Optional, Set, Tuple
 
-from ._client import Device, _check_seconds
+from ._model import Device
+from ._query import _check_seconds
 from ._open import (
     DeviceGone,
     NotANetworkCamera,
@@ -64,7 +65,7 @@ last_open: Dict[str, Any] = {}
 
 def _pyrealdds() -> Any:
     try:
-        from pyrealsense2 import pyrealdds  # type: ignore[import-not-found]
+        from pyrealsense2 import pyrealdds  # type: ignore[import-not-found, import-untyped, unused-ignore]
     except ImportError as e:
         have = "pyrealsense2 is installed but has no pyrealdds (it needs 2.56 or later, built with DDS)" \
             if "pyrealsense2" in sys.modules or _importable("pyrealsense2") else "pyrealsense2 is not installed"
@@ -185,18 +186,19 @@ def open(device: Any, *, participant: Any = None, timeout: float = 5.0, endpoint
     cam = resolve(device, endpoint, timeout)
     resolved = time.monotonic() - t0
     if not is_network(cam):
-        seen = ", ".join(cam.get("sources") or [str(cam.get("source"))])
-        raise NotANetworkCamera(f"camera {cam['id']} ({cam.get('name')}) is not a network camera: rs-discoveryd sees "
+        seen = ", ".join(cam.sources)
+        raise NotANetworkCamera(f"camera {cam.id} ({cam.name}) is not a network camera: rs-discoveryd sees "
                                 f"it on {seen}; open it with rsdiscovery.librealsense.device()")
     dds = _pyrealdds()
-    domain, root = cam["domain"], cam["topic-root"]
+    assert cam.domain is not None and cam.topic_root is not None  # is_network
+    domain, root = cam.domain, cam.topic_root
     deadline = t0 + timeout
     still = StillListed(cam, endpoint)
-    server = (cam.get("server") or {}).get("participant-name")
+    server = cam.server.participant_name if cam.server is not None else None
 
     marks: Dict[str, float] = {"resolved": resolved, "imported": time.monotonic() - t0}
     last_open.clear()
-    last_open.update(camera=cam["id"], marks=marks)
+    last_open.update(camera=cam.id, marks=marks)
     if participant is not None:
         p, fresh = participant, False
     else:
@@ -228,7 +230,7 @@ def open(device: Any, *, participant: Any = None, timeout: float = 5.0, endpoint
             for c, probe in candidates:
                 if probe.notification():
                     stage = "matching"
-                    if probe.control() or time.monotonic() - probe.notification_at > _CONTROL_GRACE:
+                    if probe.control() or time.monotonic() - (probe.notification_at or 0.0) > _CONTROL_GRACE:
                         winner = (c, probe)
                         break
             if winner:
@@ -258,7 +260,8 @@ def open(device: Any, *, participant: Any = None, timeout: float = 5.0, endpoint
             last_open["replaced"] = True
         _matched.add((str(p.guid()), root))
     losers = [c for c, _ in candidates[1:] if c is not p] + ([candidates[0][0]] if candidates[0][0] is not p else [])
-    candidates = winner = None
+    candidates.clear()  # drop the probes (and their readers) now
+    winner = None
     # 2. The device: its reader is matched to the server's writer as it is made.
     stage = "initialization"
     dev = dds.device(p, dds.message.device_info.from_json(device_info(cam)))
@@ -293,7 +296,7 @@ def _not_ready(cam: Device, stage: str, elapsed: float, timeout: float) -> NotRe
         "initialization": "its server did not send its whole initialization set (device header and options, "
                           "every stream's header and options)",
     }[stage]
-    return NotReady(f"camera {cam['id']} ({cam.get('name')}) not ready within {timeout:g} s: {what}", stage, elapsed)
+    return NotReady(f"camera {cam.id} ({cam.name}) not ready within {timeout:g} s: {what}", stage, elapsed)
 
 
 class Frame(NamedTuple):
