@@ -77,6 +77,7 @@ struct Connection : Pollable {
   std::size_t file_offset = 0, file_left = 0;
   bool broken = false;             // a send failed: nothing more goes out
   bool close_after_write = false;
+  std::size_t served = 0;          // responses begun on this connection
   Clock::time_point deadline{};       // reading: the request (or the next one) must be in by then
   Clock::time_point last_progress{};  // writing, streaming: the last time the client took bytes
   std::shared_ptr<EventFeed> feed;
@@ -403,6 +404,7 @@ struct Reactor {
   std::atomic<std::size_t> owned{0};
   std::mutex handed_mutex;
   std::vector<std::pair<int, const LoopListener*>> handed;  // accepted by another loop, for this one
+  bool handed_closed = false;  // under handed_mutex: this loop has ended, serve your own
   std::atomic<bool> table_changed{false};
   bool stop_begun = false;
   std::thread thread;
@@ -430,6 +432,14 @@ struct Reactor {
     conns.erase(&c);  // destroys c
   }
 
+  // At the loop's end: no connection may be handed to it any more. false if one
+  // came meanwhile (taken now, to be answered first).
+  bool close_handed() {
+    std::lock_guard lock(handed_mutex);
+    if (!handed.empty()) return false;
+    handed_closed = true;
+    return true;
+  }
   void run();
   void begin_stop(Clock::time_point now);
   void accept_all(ListenerHandle& l, Clock::time_point now);
@@ -459,7 +469,7 @@ void Reactor::run() {
       const bool parked = std::any_of(conns.begin(), conns.end(),
                                       [](const auto& kv) { return kv.second->state == ConnState::parked; });
       const bool over = now.time_since_epoch().count() >= loop.stop_deadline.load();
-      if (conns.empty() || (over && !parked)) break;
+      if ((conns.empty() || (over && !parked)) && close_handed()) break;
       if (over) {  // what is left (but for parked requests) is cut
         std::vector<Connection*> cut;
         for (auto& [p, c] : conns)
@@ -527,11 +537,18 @@ void Reactor::begin_stop(Clock::time_point now) {
         else set_interest(*c, EPOLLOUT);
         break;
       case ConnState::reading: {
-        // A request already sent (or in the socket's buffer) is still answered.
+        // Every connection accepted is answered: a request already in, or on its
+        // way (accepted, its request not read yet), gets its answer within the
+        // grace. Only an idle keep-alive connection is closed at once, as HTTP
+        // lets a server do; its client retries on a new connection, which waits
+        // in the listener's queue (systemd's, under socket activation) for the
+        // next daemon. Closing the fresh ones too cut about 1 in 200 requests
+        // under restarts (test_restarts_under_load_fail_no_request).
         bool eof = false, error = false;
         read_some(*c, eof, error);
-        if (error || c->in.empty()) close_connection(*c);
-        else process_input(*c, true, now);
+        c->close_after_write = true;
+        if (error || (c->in.empty() && (eof || c->served > 0))) close_connection(*c);
+        else if (!c->in.empty()) process_input(*c, eof, now);
         break;
       }
       case ConnState::writing:
@@ -545,6 +562,9 @@ void Reactor::begin_stop(Clock::time_point now) {
 
 void Reactor::accept_all(ListenerHandle& l, Clock::time_point now) {
   for (;;) {
+    // Stopping: what is still queued waits in the listener for the next daemon
+    // (systemd keeps the socket), rather than being accepted and cut.
+    if (loop.stopping.load()) return;
     std::unique_lock accepting(loop.accepting);
     const int fd = ::accept4(l.spec->fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) {
@@ -579,22 +599,29 @@ void Reactor::accept_all(ListenerHandle& l, Clock::time_point now) {
       adopt(fd, *l.spec, now);
       continue;
     }
+    bool handed_over = false;
     {
       std::lock_guard lock(target->handed_mutex);
-      target->handed.emplace_back(fd, l.spec);
+      if (!target->handed_closed) {
+        target->handed.emplace_back(fd, l.spec);
+        handed_over = true;
+      }
     }
-    target->wake();
+    if (handed_over) {
+      target->wake();
+      continue;
+    }
+    --target->owned;  // that loop has ended (stopping): this one answers it
+    ++owned;
+    adopt(fd, *l.spec, now);
   }
 }
 
 void Reactor::adopt(int fd, const LoopListener& listener, Clock::time_point now) {
-  if (stop_begun) {  // accepted by a loop not yet stopping: too late to serve
-    ::close(fd);
-    --loop.connections;
-    --owned;
-    return;
-  }
+  // Accepted by a loop not yet stopping, handed to this one: served all the same
+  // (its client has no other daemon to ask), then closed.
   auto conn = std::make_unique<Connection>(fd, listener);
+  conn->close_after_write = stop_begun;
   conn->deadline = now + loop.options.client_timeout;
   conn->interest = EPOLLIN | EPOLLRDHUP;
   epoll_event ev{};
@@ -748,6 +775,7 @@ void Reactor::serve(Connection& c) const {
 // a pipelined request may follow.
 bool Reactor::after_serve(Connection& c, Clock::time_point now) {
   c.last_progress = now;
+  ++c.served;
   if (c.state == ConnState::streaming) {
     if (!send_pending(c, now)) {
       close_connection(c);
