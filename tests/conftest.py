@@ -179,10 +179,11 @@ class Daemon:
 
 @pytest.fixture
 def daemon(tmp_path):
-    """daemon(domains=[..], extra=[..], wait=True) -> Daemon, stopped after the test."""
+    """daemon(domains=[..], extra=[..], wait=True) -> Daemon, stopped after the test.
+    USB is off unless usb=True (the host's bus is no test's)."""
     started = []
 
-    def start(domains, extra=(), wait=True, http=True, env=None, socket=None, prefix=()):
+    def start(domains, extra=(), wait=True, http=True, env=None, socket=None, prefix=(), usb=False):
         sock = socket or os.path.join(tmp_path, f"api-{len(started)}.sock")
         port = free_port() if http else None
         args = []
@@ -193,8 +194,8 @@ def daemon(tmp_path):
         empty = os.path.join(tmp_path, "empty-config.json")
         with open(empty, "w") as f:
             f.write("{}")
-        args += ["--config", empty, "--socket", sock, "--http", f"127.0.0.1:{port}" if port else "off", "--no-usb",
-                 "--log-level", "debug"]
+        args += ["--config", empty, "--socket", sock, "--http", f"127.0.0.1:{port}" if port else "off",
+                 "--log-level", "debug"] + ([] if usb else ["--no-usb"])
         args += list(extra)
         d = Daemon(args, str(tmp_path), sock, port, env, prefix)
         started.append(d)

@@ -11,7 +11,9 @@ container engine (Docker and Podman make the same ones):
 - over HTTP from a bridge network: the daemon listening on the bridge's address, the
   container asking by the name host.docker.internal: curl (which sends that name as
   Host) is answered once the name is in allowed-hosts (421 Misdirected Request
-  before); rs-discover, which always sends Host: localhost, either way.
+  before); rs-discover, which always sends Host: localhost, either way;
+- the daemon's own recipe: host network, an engine's minimal /dev and /run, USB
+  bus and udev's directory passed in or not.
 """
 import grp
 import json
@@ -63,11 +65,12 @@ def run_dir():
     shutil.rmtree(path, ignore_errors=True)
 
 
-def start_daemon(daemon, domain, sock, extra=(), **kw):
+def start_daemon(daemon, domain, sock, extra=(), prefix=(), **kw):
     # The daemon's group makes the socket's (root:users 0660), as the socket unit's
     # SocketGroup=rs-discoveryd does.
     gid = grp.getgrnam(GROUP).gr_gid
-    return daemon([domain], extra=extra, socket=sock, prefix=["setpriv", f"--regid={gid}", "--clear-groups"], **kw)
+    return daemon([domain], extra=extra, socket=sock,
+                  prefix=list(prefix) + ["setpriv", f"--regid={gid}", "--clear-groups"], **kw)
 
 
 def listed(result):
@@ -195,3 +198,47 @@ def test_a_client_on_a_bridge_network_asks_over_http_with_allowed_hosts(free_dom
     assert curl_status(f"http://host.docker.internal:{port}/v1/devices") == "200"
     assert listed(in_box(CLI, "--endpoint", f"http://host.docker.internal:{port}", "list", "--json")) == [
         camera["serial"]]
+
+
+def container_prefix(setup):
+    """The command prefix that runs a program in a new mount namespace set up by
+    `setup` (shell, as root) and on the host's network, as `docker run --network host`."""
+    return ["unshare", "--mount", "--propagation", "private", "sh", "-ec", setup + '\nexec "$@"', "sh"]
+
+
+def test_the_daemons_own_container_recipe(free_domain, daemon, realdds_server, run_dir, tmp_path):
+    # The README's `docker run --network host -v /dev/bus/usb:/dev/bus/usb:ro
+    # -v /run/udev:/run/udev:ro -v /run/rs-discoveryd:/run/rs-discoveryd ...`: an
+    # engine's minimal /dev and its own /run, the host's network. A camera on the
+    # host's network is listed, the host's client reads the daemon through the
+    # runtime directory, and with the USB bus and udev's directory passed in the
+    # daemon watches USB. This machine has no USB bus: a directory stands in for
+    # the host's /dev/bus/usb (the real one when there is one).
+    camera = device_info(1)
+    realdds_server(free_domain, [camera], name="host-network-camera")
+    usb_bus = "/dev/bus/usb" if os.path.isdir("/dev/bus/usb") else str(tmp_path / "host-usb")
+    udev = "/run/udev" if os.path.isdir("/run/udev") else str(tmp_path / "host-udev")
+    os.makedirs(usb_bus, exist_ok=True)
+    os.makedirs(udev, exist_ok=True)
+    minimal = (f"mkdir -p {tmp_path}/host-dev && mount --rbind /dev {tmp_path}/host-dev\n"
+               "mount -t tmpfs -o mode=755 tmpfs /dev\n"
+               f"for n in null zero full random urandom; do : > /dev/$n; mount --bind {tmp_path}/host-dev/$n /dev/$n; done\n"
+               "mount -t tmpfs -o mode=755 tmpfs /run\n"
+               f"mkdir -p /run/rs-discoveryd && mount --bind {run_dir} /run/rs-discoveryd\n")
+    with_usb = (f"mkdir -p /dev/bus/usb /run/udev\n"
+                f"mount --bind -o ro {usb_bus} /dev/bus/usb\nmount --bind -o ro {udev} /run/udev\n")
+    sock = os.path.join(run_dir, "api.sock")  # the host's view of the container's socket
+    inside = ["--socket", "/run/rs-discoveryd/api.sock"]
+    for passed, state in ((True, "hotplug"), (False, "unavailable")):
+        d = start_daemon(daemon, free_domain, sock, extra=inside, usb=True, http=False,
+                         prefix=container_prefix(minimal + (with_usb if passed else "")))
+        wait_for(lambda: [x["serial"] for x in d.devices()] == [camera["serial"]], 20,
+                 what="the host network's camera, from the container")
+        usb = d.get_json("/healthz")["usb"]
+        assert usb["state"] in ((state, "polling") if passed else (state,)), usb
+        if not passed:
+            assert "/dev/bus/usb" in usb["error"], usb  # and says what to pass in
+        r = subprocess.run([CLI, "--endpoint", "unix:" + sock, "list", "--json"], capture_output=True, text=True,
+                           timeout=60)
+        assert listed(r) == [camera["serial"]]
+        d.stop()
