@@ -180,7 +180,7 @@ bool DomainBook::drop_announcer(const std::string& id, const std::string& writer
 }
 
 void DomainBook::participant_gone(const std::string& guid, Clock::time_point now) {
-  lost_.participant_gone(guid);
+  lost_.participant_gone(guid, now);
   std::vector<std::pair<std::string, std::string>> gone;  // device id, writer GUID
   for (const auto& [id, device] : devices_)
     for (const auto& [writer, server] : device.announcers)

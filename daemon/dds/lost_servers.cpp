@@ -9,9 +9,15 @@ void LostServers::participant_alive(const std::string& guid, Clock::time_point n
   if (auto it = lost_.find(guid); it != lost_.end() && !it->second.heard_at) it->second.heard_at = now;
 }
 
+void LostServers::participant_gone(const std::string& guid, Clock::time_point now) {
+  alive_.erase(guid);
+  gone_at_[guid] = now;
+}
+
 void LostServers::participant_rebuilt() {
   alive_.clear();
   suspects_.clear();
+  gone_at_.clear();
   reading_since_.reset();
   for (auto& [guid, lost] : lost_) lost.heard_at.reset();  // the new participant hears it anew
 }
@@ -34,17 +40,23 @@ LostServers::Verdict LostServers::check(Clock::time_point now) {
       ++it;
       continue;
     }
-    // A participant still alive only dropped a device (or a writer): not lost.
-    if (!alive_.count(it->first) && !lost_.count(it->first)) {
+    // A participant still alive that never went only dropped a device (or a
+    // writer): not lost. One that went and is back already is lost all the same.
+    const auto gone = gone_at_.find(it->first);
+    const bool went = gone != gone_at_.end() && gone->second + times_.check_delay >= it->second;
+    const bool alive = alive_.count(it->first) > 0;
+    if ((!alive || went) && !lost_.count(it->first)) {
       // A refresh made since the loss already served it (no second rebuild
       // 100 ms after the first): its count goes on from that one.
       const bool served = last_refresh_ && *last_refresh_ >= it->second;
-      lost_[it->first] = served ? Lost{it->second, *last_refresh_ + times_.refresh_again, 1, std::nullopt, 0}
-                                : Lost{it->second, it->second + times_.refresh_first, 0, std::nullopt, 0};
+      const std::optional<Clock::time_point> heard = alive ? std::optional(now) : std::nullopt;
+      lost_[it->first] = served ? Lost{it->second, *last_refresh_ + times_.refresh_again, 1, heard, 0}
+                                : Lost{it->second, it->second + times_.refresh_first, 0, heard, 0};
       verdict.newly_lost.push_back(it->first);
     }
     it = suspects_.erase(it);
   }
+  std::erase_if(gone_at_, [&](const auto& kv) { return now - kv.second > 2 * times_.check_delay; });
   for (auto it = lost_.begin(); it != lost_.end();) {
     if (now - it->second.lost_at >= times_.forget_after) {
       verdict.given_up.push_back(it->first);

@@ -51,7 +51,10 @@ class LostServers {
 
   // Cyclone's view of the domain's participants (by GUID).
   void participant_alive(const std::string& guid, Clock::time_point now);
-  void participant_gone(const std::string& guid) { alive_.erase(guid); }
+  // Gone (left, or its lease expired) at `now`: remembered for check_delay, as
+  // it may be heard again before the verdict (measured under 20 % UDP loss: back
+  // within 100 ms, its writers never matched again by the same participant).
+  void participant_gone(const std::string& guid, Clock::time_point now);
   // A fresh DDS participant hears every peer anew; what it heard is forgotten.
   // Servers already lost stay lost.
   void participant_rebuilt();
@@ -91,6 +94,7 @@ class LostServers {
   LostServerTimes times_;
   std::set<std::string> alive_;                         // participants Cyclone sees now
   std::map<std::string, Clock::time_point> suspects_;   // participant -> when its writers went
+  std::map<std::string, Clock::time_point> gone_at_;    // participant -> when it last went
   std::map<std::string, Lost> lost_;                    // by participant GUID
   std::optional<Clock::time_point> last_refresh_;
   std::optional<Clock::time_point> reading_since_;  // the current participant's reader

@@ -47,11 +47,35 @@ TEST(LostServers, WritersFirstThenTheParticipantIsALoss) {
   lost.participant_alive(kServer, t0);
   lost.writer_lost(kServer, t0);
   EXPECT_FALSE(lost.check(t0 + 100ms).refresh);
-  lost.participant_gone(kServer);
+  lost.participant_gone(kServer, t0 + 200ms);
   const auto verdict = lost.check(t0 + 500ms);
   EXPECT_EQ(verdict.newly_lost, std::vector<std::string>{kServer});
   EXPECT_FALSE(verdict.refresh);  // nothing to gain before it is heard again (or 30 s)
   EXPECT_EQ(lost.size(), 1u);
+}
+
+TEST(LostServers, GoneAndHeardAgainBeforeTheVerdictIsStillALoss) {
+  // 20 % UDP loss: the lease runs out, the participant is heard again 100 ms later,
+  // but the same Cyclone participant never matches its writers again. It went: it
+  // is lost (and, heard already, refreshed after the grace), not "still alive".
+  LostServers lost;
+  lost.reader_made(t0 - 60s);
+  lost.participant_alive(kServer, t0 - 10s);
+  lost.participant_gone(kServer, t0);
+  lost.writer_lost(kServer, t0);
+  lost.participant_alive(kServer, t0 + 100ms);
+  const auto verdict = lost.check(t0 + 500ms);
+  EXPECT_EQ(verdict.newly_lost, std::vector<std::string>{kServer});
+  EXPECT_TRUE(lost.lost(kServer));
+  EXPECT_FALSE(lost.check(t0 + 900ms).refresh);
+  EXPECT_TRUE(lost.check(t0 + 1s).refresh);  // rematch_grace after it was judged lost, heard
+  // A device dropped long after the participant last went is no loss.
+  LostServers other;
+  other.participant_gone(kOther, t0);
+  other.participant_alive(kOther, t0 + 1s);
+  other.writer_lost(kOther, t0 + 10s);
+  EXPECT_TRUE(other.check(t0 + 11s).newly_lost.empty());
+  EXPECT_FALSE(other.lost(kOther));
 }
 
 TEST(LostServers, BlindRefreshesBackOffUntilTheServerIsFound) {
