@@ -39,9 +39,9 @@ class TableFeed final : public EventFeed {
       std::uint64_t n = 0;
       for (const auto& e : got.events) {
         cursor = e.generation;
-        // Only a filtered stream reads the device; the others send the logged bytes.
-        if (!filter.empty() && !filter.matches(e.device())) continue;
-        out += sse_message(to_string(e.type), e.generation, *e.document);
+        // A filter reads the entry's typed fields; every stream sends the logged bytes.
+        if (!filter.empty() && !filter.matches(e.entry->device)) continue;
+        out += sse_message(to_string(e.type), e.generation, e.entry->text);
         ++n;
       }
       sent_ += n;

@@ -33,10 +33,10 @@ bool complete(const std::vector<DomainStatus>& list) {
   return std::all_of(list.begin(), list.end(), [](const DomainStatus& d) { return d.complete; });
 }
 
-std::map<int, std::size_t> count_by_domain(const std::vector<nlohmann::json>& devices) {
+std::map<int, std::size_t> count_by_domain(const std::vector<EntryPtr>& devices) {
   std::map<int, std::size_t> out;
-  for (const auto& d : devices)
-    if (auto it = d.find(model::key::domain); it != d.end() && it->is_number_integer()) ++out[it->get<int>()];
+  for (const auto& e : devices)
+    if (e->device.domain) ++out[*e->device.domain];
   return out;
 }
 
@@ -69,7 +69,7 @@ thread_local ListCache tls_list_cache;
 }  // namespace
 
 std::shared_ptr<const SharedBody> Handlers::device_list(const DeviceFilter& filter, const std::string& query,
-                                                                bool done, std::uint64_t& generation) {
+                                                        bool done, std::uint64_t& generation) {
   auto& cache = tls_list_cache;
   if (cache.server == instance && cache.generation == table.generation())
     for (const auto& e : cache.entries)
@@ -77,14 +77,23 @@ std::shared_ptr<const SharedBody> Handlers::device_list(const DeviceFilter& filt
         generation = cache.generation;
         return e.body;
       }
-  auto snap = table.snapshot();
-  nlohmann::json devices = nlohmann::json::array();
-  for (auto& d : snap.devices)
-    if (filter.matches(d)) devices.push_back(std::move(d));
+  const auto snap = table.snapshot();
   // The generation lets a client list, then stream with ?since=generation,
-  // without missing or repeating an event in between.
-  nlohmann::json doc = {{"generation", snap.generation}, {"complete", done}, {"devices", std::move(devices)}};
-  auto body = std::make_shared<const SharedBody>(dump(doc) + "\n");
+  // without missing or repeating an event in between. Spelled as dump() spells
+  // {"generation", "complete", "devices"} (keys sorted), from the entries' own text.
+  std::string text = done ? R"({"complete":true,"devices":[)" : R"({"complete":false,"devices":[)";
+  std::size_t size = text.size() + 40;
+  for (const auto& e : snap.devices) size += e->text.size() + 1;
+  text.reserve(size);
+  bool first = true;
+  for (const auto& e : snap.devices)
+    if (filter.matches(e->device)) {
+      if (!first) text += ',';
+      text += e->text;
+      first = false;
+    }
+  text += R"(],"generation":)" + std::to_string(snap.generation) + "}\n";
+  auto body = std::make_shared<const SharedBody>(std::move(text));
   if (cache.server != instance || cache.generation != snap.generation) cache = {instance, snap.generation, {}};
   if (cache.entries.size() < 16) cache.entries.push_back({done, query, body});
   generation = snap.generation;
@@ -119,13 +128,13 @@ void Handlers::handle_devices(const httplib::Request& req, httplib::Response& re
                            });
 }
 
-std::vector<nlohmann::json> Handlers::lookup(const std::string& name) const {
-  if (auto doc = table.find(name)) return {std::move(*doc)};
+std::vector<EntryPtr> Handlers::lookup(const std::string& name) const {
+  if (auto entry = table.find_entry(name)) return {std::move(entry)};
   // Not an id: a serial or a topic-root names a device too (the model's rule), when it
   // names exactly one; two cameras behind one serial must be told apart by id.
-  std::vector<nlohmann::json> hits;
-  for (auto& d : table.snapshot().devices)
-    if (model::device_from_json(d).named_by(name)) hits.push_back(std::move(d));
+  std::vector<EntryPtr> hits;
+  for (auto& e : table.snapshot().devices)
+    if (e->device.named_by(name)) hits.push_back(std::move(e));
   return hits;
 }
 
@@ -134,10 +143,13 @@ void Handlers::handle_device(const httplib::Request& req, httplib::Response& res
   const std::string id = req.matches.size() > 1 ? req.matches[1].str() : "";
   const bool done = status.discovery_complete();
   auto hits = lookup(id);
-  if (hits.size() == 1) return send_json(res, 200, hits.front());
+  if (hits.size() == 1) {
+    res.status = 200;
+    return res.set_content(hits.front()->text + "\n", kJson);
+  }
   if (hits.size() > 1) {
     nlohmann::json ids = nlohmann::json::array();
-    for (const auto& d : hits) ids.push_back(d.value(model::key::id, std::string()));
+    for (const auto& e : hits) ids.push_back(e->device.id);
     return send_json(res, 409, {{"error", std::to_string(hits.size()) + " devices match '" + id +
                                               "'; name one by its id"},
                                 {"status", 409},
@@ -161,7 +173,7 @@ void Handlers::handle_description(const httplib::Request& req, httplib::Response
                                    : std::to_string(hits.size()) + " devices match '" + name + "'; name one by its id");
   // Blocks this worker until the camera's server has sent its set (a few ms once
   // asked; the first time for a device) or the describe timeout.
-  const auto answer = status.describe(hits.front().value("id", std::string()));
+  const auto answer = status.describe(hits.front()->device.id);
   using Outcome = DeviceDescription::Outcome;
   switch (answer.outcome) {
     case Outcome::ok:

@@ -62,7 +62,7 @@ class Handlers {
                                                 std::uint64_t& generation);
   // The devices `name` names: the one with that id, else those with that serial
   // or topic-root.
-  std::vector<nlohmann::json> lookup(const std::string& name) const;
+  std::vector<EntryPtr> lookup(const std::string& name) const;
 };
 
 }  // namespace rsd::api
