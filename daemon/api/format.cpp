@@ -125,10 +125,7 @@ bool ParticipantFilter::matches(const model::Participant& p) const {
   return (domains.empty() || domains.contains(p.domain)) && (states.empty() || states.contains(p.state));
 }
 
-bool DeviceFilter::matches(const nlohmann::json& doc) const {
-  if (!doc.is_object()) return false;
-  if (empty()) return true;  // the common case costs no conversion
-  const model::Device device = model::device_from_json(doc);
+bool DeviceFilter::matches(const model::Device& device) const {
   if (!domains.empty() && (!device.domain || !domains.contains(*device.domain))) return false;
   if (!product_lines.empty() && (!device.product_line || !product_lines.contains(lower(*device.product_line))))
     return false;

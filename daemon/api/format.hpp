@@ -49,7 +49,8 @@ struct DeviceFilter {
     return domains.empty() && product_lines.empty() && sources.empty() && serials.empty() && names.empty() &&
            addresses.empty();
   }
-  bool matches(const nlohmann::json& device) const;
+  // Reads the typed fields the table keeps (TableEntry::device): no parsing per request.
+  bool matches(const model::Device& device) const;
 };
 
 // The rule of every route for query parameters: parameter names are exact (lower

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <iterator>
+#include <limits>
 
 namespace rsd {
 
@@ -19,9 +20,9 @@ DeviceTable::DeviceTable(std::size_t log_capacity, std::uint64_t first_generatio
     : log_capacity_(std::max<std::size_t>(1, log_capacity)), log_max_bytes_(log_max_bytes),
       generation_(first_generation) {}
 
-nlohmann::json DeviceEvent::device() const {
-  return document ? nlohmann::json::parse(*document) : nlohmann::json();
-}
+nlohmann::json TableEntry::json() const { return nlohmann::json::parse(text); }
+
+nlohmann::json DeviceEvent::device() const { return entry ? entry->json() : nlohmann::json(); }
 
 namespace {
 // Two documents describe the same state when they differ only in the timestamps.
@@ -34,14 +35,17 @@ bool same_but_timestamps(const nlohmann::json& a, const nlohmann::json& b) {
   return x == y;
 }
 
-// Sources in the order in which they name a merged entry; unknown ones come after,
-// by name.
-constexpr const char* kSourceOrder[] = {"dds", "usb"};
-
+// Sources in the order in which they name a merged entry: the model's (dds, usb), then
+// any other by name.
 std::pair<std::size_t, std::string> source_rank(const std::string& source) {
-  for (std::size_t i = 0; i < std::size(kSourceOrder); ++i)
-    if (source == kSourceOrder[i]) return {i, source};
-  return {std::size(kSourceOrder), source};
+  if (const auto known = model::parse_source(source)) return {static_cast<std::size_t>(*known), source};
+  return {std::numeric_limits<std::size_t>::max(), source};
+}
+
+// The entry readers get: typed once and serialized once, here, per change.
+EntryPtr make_entry(const nlohmann::json& doc) {
+  return std::make_shared<const TableEntry>(
+      TableEntry{model::device_from_json(doc), doc.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)});
 }
 
 const std::string* string_field(const nlohmann::json& doc, const char* key) {
@@ -143,24 +147,27 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
     if (next.count(entry_id)) continue;
     auto it = devices_.find(entry_id);
     if (it == devices_.end()) continue;
-    nlohmann::json last = std::move(it->second);
+    EntryPtr last = std::move(it->second);
     devices_.erase(it);
     for (const auto& [id, members] : next)
-      if (std::find(members.begin(), members.end(), entry_id) != members.end())
-        last[kMergedInto] = id;
-    events.push_back(record(EventType::removed, last));
+      if (std::find(members.begin(), members.end(), entry_id) != members.end()) {
+        nlohmann::json doc = model::to_json(last->device);
+        doc[kMergedInto] = id;
+        last = make_entry(doc);
+      }
+    events.push_back(record(EventType::removed, std::move(last)));
   }
   for (const auto& [entry_id, members] : next) {
     for (const auto& m : members) owner_[m] = entry_id;
     nlohmann::json doc = build_entry(members);
     auto it = devices_.find(entry_id);
     if (it == devices_.end()) {
-      auto& stored = devices_.emplace(entry_id, std::move(doc)).first->second;
+      const auto& stored = devices_.emplace(entry_id, make_entry(doc)).first->second;
       events.push_back(record(EventType::added, stored));
       continue;
     }
-    const bool changed = !same_but_timestamps(it->second, doc);
-    it->second = std::move(doc);
+    const bool changed = !same_but_timestamps(model::to_json(it->second->device), doc);
+    it->second = make_entry(doc);
     if (changed) events.push_back(record(EventType::changed, it->second));
   }
   return events;
@@ -234,19 +241,26 @@ std::vector<DeviceEvent> DeviceTable::remove_if(
   return events;
 }
 
-const nlohmann::json* DeviceTable::find(const std::string& id) const {
+EntryPtr DeviceTable::find(const std::string& id) const {
   auto it = devices_.find(id);
-  if (it != devices_.end()) return &it->second;
+  if (it != devices_.end()) return it->second;
   auto o = owner_.find(id);
   if (o == owner_.end()) return nullptr;
   it = devices_.find(o->second);
-  return it == devices_.end() ? nullptr : &it->second;
+  return it == devices_.end() ? nullptr : it->second;
+}
+
+std::vector<EntryPtr> DeviceTable::entries() const {
+  std::vector<EntryPtr> out;
+  out.reserve(devices_.size());
+  for (const auto& [id, entry] : devices_) out.push_back(entry);
+  return out;
 }
 
 std::vector<nlohmann::json> DeviceTable::devices() const {
   std::vector<nlohmann::json> out;
   out.reserve(devices_.size());
-  for (const auto& [id, doc] : devices_) out.push_back(doc);
+  for (const auto& [id, entry] : devices_) out.push_back(entry->json());
   return out;
 }
 
@@ -269,20 +283,18 @@ EventsSince DeviceTable::events_since(std::uint64_t generation) const {
 }
 
 std::optional<DeviceEvent> DeviceTable::note_described(const std::string& id) {
-  const nlohmann::json* entry = find(id);
+  EntryPtr entry = find(id);
   if (!entry) return std::nullopt;
-  return record(EventType::described, *entry);
+  return record(EventType::described, std::move(entry));
 }
 
-DeviceEvent DeviceTable::record(EventType type, const nlohmann::json& device) {
-  DeviceEvent event{++generation_, type, device.value(model::key::id, std::string()),
-                    std::make_shared<const std::string>(
-                        device.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace))};
+DeviceEvent DeviceTable::record(EventType type, EntryPtr entry) {
+  DeviceEvent event{++generation_, type, entry->device.id, std::move(entry)};
   log_.push_back(event);
-  log_bytes_ += event.document->size();
+  log_bytes_ += event.entry->text.size();
   // The newest event always stays, whatever its size: a resume from just before it works.
   while (log_.size() > 1 && (log_.size() > log_capacity_ || log_bytes_ > log_max_bytes_)) {
-    log_bytes_ -= log_.front().document->size();
+    log_bytes_ -= log_.front().entry->text.size();
     log_.pop_front();
   }
   return event;

@@ -24,16 +24,27 @@ namespace rsd {
 enum class EventType { added, changed, removed, described };
 const char* to_string(EventType type);
 
+// One entry of the table as every reader gets it: the typed device, whose fields the
+// filters, lookups and counts read, and its JSON text, made once per change (the list
+// body, GET /v1/devices/{id} and every SSE client send these very bytes). Immutable
+// and shared: a snapshot or an event holds it without copying it.
+struct TableEntry {
+  model::Device device;
+  std::string text;  // one line; invalid UTF-8 from a peer replaced, as everywhere in the API
+  nlohmann::json json() const;  // parsed again: for tests and tools
+};
+using EntryPtr = std::shared_ptr<const TableEntry>;
+
 struct DeviceEvent {
   std::uint64_t generation = 0;  // strictly increasing, one per event; the SSE id
   EventType type = EventType::added;
   std::string id;  // the entry's
-  // The device as it is after the event (before it, for removed), serialized once
-  // and shared: the change log keeps thousands of these (as JSON objects they took
-  // 3 KB each, measured; as text about 500 bytes) and every SSE client sends these
-  // very bytes. Invalid UTF-8 from a peer is replaced, as everywhere in the API.
-  std::shared_ptr<const std::string> document;
-  nlohmann::json device() const;  // parsed again: for filters and tests
+  // The entry as it is after the event (before it, for removed): the table's own while
+  // it is current. The change log keeps thousands of these; a document as a JSON
+  // object took 3 KB (measured), as text about 500 bytes, and the log's byte bound
+  // counts the text.
+  EntryPtr entry;
+  nlohmann::json device() const;  // parsed again: for tests
 };
 
 // What events_since() found in the change log.
@@ -50,7 +61,8 @@ struct EventsSince {
 // when both carry a "source" string and the very same non-empty "serial" string
 // (never on a guess). The entry then:
 //   - takes the id and every field of its primary sighting: the source that comes
-//     first in kSourceOrder ("dds" before "usb"), lowest id among equals, so the id
+//     first in model::Source's order ("dds" before "usb"; a source the model does
+//     not know after them, by name), lowest id among equals, so the id
 //     only depends on what is seen now, not on the order it was seen in;
 //   - keeps "source" = the primary's source (the sighting that names the entry) and
 //     lists every source in "sources" (sorted; also set, one long, on unmerged
@@ -105,15 +117,16 @@ class DeviceTable {
   std::vector<DeviceEvent> remove_if(const std::function<bool(const nlohmann::json&)>& pred);
 
   // The entry with this id, or the entry a sighting with this id is merged into.
-  const nlohmann::json* find(const std::string& id) const;
-  std::vector<nlohmann::json> devices() const;  // ordered by id
+  EntryPtr find(const std::string& id) const;
+  std::vector<EntryPtr> entries() const;        // ordered by id
+  std::vector<nlohmann::json> devices() const;  // the same, parsed again: for tests
   std::size_t size() const { return devices_.size(); }
 
   std::uint64_t generation() const { return generation_; }
   EventsSince events_since(std::uint64_t generation) const;
 
  private:
-  DeviceEvent record(EventType type, const nlohmann::json& device);
+  DeviceEvent record(EventType type, EntryPtr entry);
 
   using Layout = std::map<std::string, std::vector<std::string>>;  // entry id -> sightings, primary first
   void index(const std::string& id, const nlohmann::json& sighting, bool add);
@@ -131,7 +144,7 @@ class DeviceTable {
   std::map<std::string, nlohmann::json> sightings_;  // as the sources gave them
   std::map<std::string, std::set<std::string>> by_serial_;  // merge key -> sighting ids
   std::map<std::string, std::string> owner_;        // sighting id -> entry id
-  std::map<std::string, nlohmann::json> devices_;   // the entries, what everyone sees
+  std::map<std::string, EntryPtr> devices_;        // the entries, what everyone sees
   std::deque<DeviceEvent> log_;
   std::size_t log_capacity_;
   std::size_t log_max_bytes_;

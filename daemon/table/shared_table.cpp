@@ -62,12 +62,16 @@ std::vector<DeviceEvent> SharedTable::remove_if(
 
 TableSnapshot SharedTable::snapshot() const {
   std::lock_guard lock(mutex_);
-  return {table_.generation(), table_.devices()};
+  return {table_.generation(), table_.entries()};
+}
+
+EntryPtr SharedTable::find_entry(const std::string& id) const {
+  std::lock_guard lock(mutex_);
+  return table_.find(id);
 }
 
 std::optional<nlohmann::json> SharedTable::find(const std::string& id) const {
-  std::lock_guard lock(mutex_);
-  if (const auto* doc = table_.find(id)) return *doc;
+  if (const auto entry = find_entry(id)) return model::to_json(entry->device);
   return std::nullopt;
 }
 

@@ -15,7 +15,7 @@ namespace rsd {
 
 struct TableSnapshot {
   std::uint64_t generation = 0;
-  std::vector<nlohmann::json> devices;
+  std::vector<EntryPtr> devices;  // ordered by id; shared, not copied
 };
 
 class SharedTable {
@@ -29,7 +29,8 @@ class SharedTable {
   std::vector<DeviceEvent> remove_if(const std::function<bool(const nlohmann::json&)>& pred);
 
   TableSnapshot snapshot() const;
-  std::optional<nlohmann::json> find(const std::string& id) const;
+  EntryPtr find_entry(const std::string& id) const;  // DeviceTable::find
+  std::optional<nlohmann::json> find(const std::string& id) const;  // the same, as JSON
   std::uint64_t generation() const;
 
   // Events after `generation`, waiting up to `timeout` for the first one. Returns

@@ -40,7 +40,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (!rsd::api::parse_device_filter(params, filter, {"since"})) {
     for (int d : filter.domains)
       if (d < 0 || d > 232) std::abort();
-    (void)filter.matches(nlohmann::json::parse(v[4], nullptr, false));
+    (void)filter.matches(rsd::model::device_from_json(nlohmann::json::parse(v[4], nullptr, false)));
   }
   (void)rsd::api::check_params("/v1/domains", params, {});
   (void)rsd::api::sse_message(v[0], rsd::api::parse_generation(v[1]), v[2]);

@@ -2,6 +2,7 @@
 // It reaches what the daemon cannot be made to do on cue: a change log that
 // overflows (resync), dozens of devices, devices with odd fields, the stream limit.
 //
+//   api_harness --routes   (prints the route table, "METHOD PATTERN [blocking]" a line)
 //   api_harness [--socket PATH] [--http HOST:PORT] [--keepalive-ms N]
 //               [--max-streams N] [--log-capacity N] [--first-generation N]
 //               [--max-connections N] [--client-timeout-ms N] [--idle-timeout-ms N]
@@ -11,6 +12,7 @@
 // (a domain's "complete" is true unless the line says otherwise)
 // Each command is acknowledged with "ok <generation>".
 #include "api/api_server.hpp"
+#include "api/routes.hpp"
 #include "log/log.hpp"
 
 #include <nlohmann/json.hpp>
@@ -48,6 +50,11 @@ class HarnessStatus final : public rsd::StatusSource {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc == 2 && std::string(argv[1]) == "--routes") {  // for test_routes_spec.py
+    for (const auto& route : rsd::api::routes())
+      std::cout << route.method << ' ' << route.pattern << (route.blocking ? " blocking" : "") << '\n';
+    return 0;
+  }
   rsd::api::ApiOptions options;
   std::size_t log_capacity = 4096;
   std::uint64_t first_generation = 0;

@@ -18,12 +18,17 @@ TEST(DeviceTable, AddThenFind) {
   ASSERT_TRUE(ev);
   EXPECT_EQ(ev->type, EventType::added);
   EXPECT_EQ(ev->generation, 1u);
-  const json* doc = t.find("a");
-  ASSERT_NE(doc, nullptr);
-  EXPECT_EQ((*doc)["id"], "a");
-  EXPECT_EQ((*doc)["first-seen"], "T1");
-  EXPECT_EQ((*doc)["last-seen"], "T1");
-  EXPECT_EQ((*doc)["fw-version"], "5.16.0.1");
+  const auto entry = t.find("a");
+  ASSERT_NE(entry, nullptr);
+  const json doc = entry->json();
+  EXPECT_EQ(doc["id"], "a");
+  EXPECT_EQ(doc["first-seen"], "T1");
+  EXPECT_EQ(doc["last-seen"], "T1");
+  EXPECT_EQ(doc["fw-version"], "5.16.0.1");
+  // The typed device is the same document, read once.
+  EXPECT_EQ(entry->device.id, "a");
+  EXPECT_EQ(entry->device.fw_version, "5.16.0.1");
+  EXPECT_EQ(entry->device.topic_root, "realsense/D455_1");
 }
 
 TEST(DeviceTable, ReannouncementOnlyMovesLastSeen) {
@@ -31,8 +36,8 @@ TEST(DeviceTable, ReannouncementOnlyMovesLastSeen) {
   t.upsert("a", d455(), "T1");
   EXPECT_FALSE(t.upsert("a", d455(), "T2"));
   EXPECT_EQ(t.generation(), 1u);
-  EXPECT_EQ((*t.find("a"))["first-seen"], "T1");
-  EXPECT_EQ((*t.find("a"))["last-seen"], "T2");
+  EXPECT_EQ(t.find("a")->json()["first-seen"], "T1");
+  EXPECT_EQ(t.find("a")->json()["last-seen"], "T2");
 }
 
 TEST(DeviceTable, ChangedFieldEmitsChangedAndKeepsFirstSeen) {
@@ -122,14 +127,14 @@ TEST(DeviceTable, FirstGenerationSeedsIds) {
 TEST(DeviceTable, DescribedIsAnEventThatChangesNothing) {
   DeviceTable t;
   t.upsert("a", d455(), "T1");
-  const json before = *t.find("a");
+  const json before = t.find("a")->json();
   auto ev = t.note_described("a");
   ASSERT_TRUE(ev);
   EXPECT_EQ(ev->type, EventType::described);
   EXPECT_STREQ(rsd::to_string(ev->type), "described");
   EXPECT_EQ(ev->generation, 2u);
   EXPECT_EQ(ev->device(), before);
-  EXPECT_EQ(*t.find("a"), before);
+  EXPECT_EQ(t.find("a")->json(), before);
   EXPECT_EQ(t.events_since(1).events.size(), 1u);
   EXPECT_FALSE(t.note_described("nobody"));
   EXPECT_EQ(t.generation(), 2u);
@@ -151,4 +156,32 @@ TEST(DeviceTable, TheLogIsBoundedInBytesTooAndKeepsTheNewest) {
   t.upsert("huge", {{"name", std::string(10000, 'y')}}, "T");
   EXPECT_FALSE(t.events_since(t.generation() - 1).gap);
   EXPECT_TRUE(t.events_since(t.generation() - 2).gap);
+}
+
+TEST(DeviceTable, AnEntryIsTypedAndSerializedOncePerChange) {
+  DeviceTable t;
+  const auto added = t.upsert("a", d455(), "T1");
+  const auto entry = t.find("a");
+  ASSERT_TRUE(added && entry);
+  // The event, the table and every reader share one entry: no copy, no second dump.
+  EXPECT_EQ(added->entry.get(), entry.get());
+  EXPECT_EQ(t.entries().at(0).get(), entry.get());
+  EXPECT_EQ(entry->text, entry->json().dump());
+  EXPECT_EQ(entry->device.name, "Intel RealSense D455");
+  EXPECT_EQ(entry->device.first_seen, "T1");
+  // A change makes a new entry; the log keeps the old one as it was.
+  json recovering = d455();
+  recovering["recovery"] = true;
+  ASSERT_TRUE(t.upsert("a", recovering, "T2"));
+  EXPECT_NE(t.find("a").get(), entry.get());
+  EXPECT_EQ(t.find("a")->device.recovery, true);
+  EXPECT_FALSE(entry->device.recovery);
+  EXPECT_EQ(t.events_since(0).events.at(0).entry.get(), entry.get());
+}
+
+TEST(DeviceTable, TheTextReplacesInvalidUtf8AndTheTypedDeviceKeepsIt) {
+  DeviceTable t;
+  t.upsert("a", {{"name", std::string("D455\xff")}}, "T");
+  EXPECT_EQ(t.find("a")->device.name, std::string("D455\xff"));
+  EXPECT_NE(t.find("a")->text.find("\"D455\xef\xbf\xbd\""), std::string::npos);  // U+FFFD
 }

@@ -33,8 +33,8 @@ std::vector<std::string> ids(const DeviceTable& t) {
 TEST(TableMerge, SingleSourceEntriesListTheirSource) {
   DeviceTable t;
   t.upsert("usb-1", usb("1"), "T1");
-  EXPECT_EQ((*t.find("usb-1"))["sources"], json::array({"usb"}));
-  EXPECT_EQ((*t.find("usb-1"))["source"], "usb");
+  EXPECT_EQ(t.find("usb-1")->json()["sources"], json::array({"usb"}));
+  EXPECT_EQ(t.find("usb-1")->json()["source"], "usb");
 }
 
 TEST(TableMerge, SameSerialMergesUnderTheDdsId) {
@@ -45,7 +45,7 @@ TEST(TableMerge, SameSerialMergesUnderTheDdsId) {
   EXPECT_EQ(ev->type, EventType::added);
   EXPECT_EQ(ev->device()["id"], "dds-7-x");
   EXPECT_EQ(ids(t), std::vector<std::string>{"dds-7-x"});
-  const json& d = *t.find("dds-7-x");
+  const json d = t.find("dds-7-x")->json();
   EXPECT_EQ(d["source"], "dds");
   EXPECT_EQ(d["sources"], json::array({"dds", "usb"}));
   EXPECT_EQ(d["domain"], 7);
@@ -55,7 +55,7 @@ TEST(TableMerge, SameSerialMergesUnderTheDdsId) {
   EXPECT_EQ(d["last-seen"], "T2");
   // The USB id still finds the camera.
   ASSERT_NE(t.find("usb-123"), nullptr);
-  EXPECT_EQ((*t.find("usb-123"))["id"], "dds-7-x");
+  EXPECT_EQ(t.find("usb-123")->json()["id"], "dds-7-x");
   // The log: added usb, removed usb (merged-into), added dds.
   auto log = t.events_since(0).events;
   ASSERT_EQ(log.size(), 3u);
@@ -96,7 +96,7 @@ TEST(TableMerge, UnplugLeavesDdsAndDdsLeavingLeavesUsb) {
   EXPECT_EQ(ev->device()["id"], "dds-7-x");
   EXPECT_FALSE(ev->device().contains("merged-into"));
   EXPECT_EQ(ids(t), std::vector<std::string>{"usb-123"});
-  const json& u = *t.find("usb-123");
+  const json u = t.find("usb-123")->json();
   EXPECT_EQ(u["source"], "usb");
   EXPECT_EQ(u["sources"], json::array({"usb"}));
   EXPECT_EQ(u["first-seen"], "T3");
@@ -119,7 +119,7 @@ TEST(TableMerge, DifferentOrMissingSerialsNeverMerge) {
   noserial.erase("serial");
   t.upsert("dds-7-y", noserial, "T");
   EXPECT_EQ(t.size(), 5u);
-  EXPECT_EQ((*t.find("dds-7-x"))["sources"], json::array({"dds"}));
+  EXPECT_EQ(t.find("dds-7-x")->json()["sources"], json::array({"dds"}));
 }
 
 TEST(TableMerge, DocumentsWithoutSourceNeverMerge) {
@@ -127,7 +127,7 @@ TEST(TableMerge, DocumentsWithoutSourceNeverMerge) {
   t.upsert("a", {{"serial", "1"}}, "T");
   t.upsert("b", {{"serial", "1"}}, "T");
   EXPECT_EQ(t.size(), 2u);
-  EXPECT_FALSE(t.find("a")->contains("sources"));
+  EXPECT_FALSE(t.find("a")->json().contains("sources"));
 }
 
 TEST(TableMerge, OneSightingPerSourceJoins) {
@@ -137,11 +137,11 @@ TEST(TableMerge, OneSightingPerSourceJoins) {
   t.upsert("usb-5", usb("5"), "T");
   // Lowest DDS id names the merged entry; the other DDS sighting stays on its own.
   EXPECT_EQ(ids(t), (std::vector<std::string>{"dds-7-x", "dds-8-x"}));
-  EXPECT_EQ((*t.find("dds-7-x"))["sources"], json::array({"dds", "usb"}));
-  EXPECT_EQ((*t.find("dds-8-x"))["sources"], json::array({"dds"}));
+  EXPECT_EQ(t.find("dds-7-x")->json()["sources"], json::array({"dds", "usb"}));
+  EXPECT_EQ(t.find("dds-8-x")->json()["sources"], json::array({"dds"}));
   t.remove("dds-7-x");
   EXPECT_EQ(ids(t), std::vector<std::string>{"dds-8-x"});
-  EXPECT_EQ((*t.find("dds-8-x"))["sources"], json::array({"dds", "usb"}));
+  EXPECT_EQ(t.find("dds-8-x")->json()["sources"], json::array({"dds", "usb"}));
 }
 
 TEST(TableMerge, SerialChangeMovesTheSighting) {
@@ -151,8 +151,8 @@ TEST(TableMerge, SerialChangeMovesTheSighting) {
   json changed = dds("2");
   t.upsert("dds-7-x", changed, "T");  // the DDS server now reports another serial
   EXPECT_EQ(ids(t), (std::vector<std::string>{"dds-7-x", "usb-1"}));
-  EXPECT_EQ((*t.find("dds-7-x"))["sources"], json::array({"dds"}));
-  EXPECT_EQ((*t.find("usb-1"))["sources"], json::array({"usb"}));
+  EXPECT_EQ(t.find("dds-7-x")->json()["sources"], json::array({"dds"}));
+  EXPECT_EQ(t.find("usb-1")->json()["sources"], json::array({"usb"}));
 }
 
 TEST(TableMerge, ReannouncingAMergedDeviceIsNotNews) {
@@ -162,7 +162,7 @@ TEST(TableMerge, ReannouncingAMergedDeviceIsNotNews) {
   const auto g = t.generation();
   EXPECT_FALSE(t.upsert("dds-7-x", dds("1"), "T2"));
   EXPECT_EQ(t.generation(), g);
-  EXPECT_EQ((*t.find("dds-7-x"))["last-seen"], "T2");
+  EXPECT_EQ(t.find("dds-7-x")->json()["last-seen"], "T2");
 }
 
 TEST(TableMerge, RemoveIfSeesSightingsNotEntries) {
@@ -173,7 +173,7 @@ TEST(TableMerge, RemoveIfSeesSightingsNotEntries) {
   auto events = t.remove_if([](const json& d) { return d.value("source", "") == "usb"; });
   EXPECT_EQ(events.size(), 2u);  // dds-7-x changed, usb-2 removed
   EXPECT_EQ(ids(t), std::vector<std::string>{"dds-7-x"});
-  EXPECT_FALSE(t.find("dds-7-x")->contains("usb"));
+  EXPECT_FALSE(t.find("dds-7-x")->json().contains("usb"));
   // The domain's DDS side torn down: the USB camera would stay.
   t.upsert("usb-1", usb("1"), "T");
   t.remove_if([](const json& d) { return d.value("domain", -1) == 7; });
@@ -186,6 +186,24 @@ TEST(TableMerge, SourcesCannotForgeTableFields) {
   doc["sources"] = {"dds", "usb"};
   doc["merged-into"] = "x";
   t.upsert("usb-1", doc, "T");
-  EXPECT_EQ((*t.find("usb-1"))["sources"], json::array({"usb"}));
-  EXPECT_FALSE(t.find("usb-1")->contains("merged-into"));
+  EXPECT_EQ(t.find("usb-1")->json()["sources"], json::array({"usb"}));
+  EXPECT_FALSE(t.find("usb-1")->json().contains("merged-into"));
+}
+
+TEST(TableMerge, EntriesAreTypedThroughTheMerge) {
+  DeviceTable t;
+  t.upsert("usb-123", usb("123"), "T1");
+  t.upsert("dds-7-x", dds("123"), "T2");
+  const auto merged = t.find("usb-123");
+  ASSERT_TRUE(merged);
+  EXPECT_EQ(merged->device.id, "dds-7-x");
+  EXPECT_EQ(merged->device.source, rsd::model::Source::dds);
+  EXPECT_EQ(merged->device.sources, (std::vector<rsd::model::Source>{rsd::model::Source::dds, rsd::model::Source::usb}));
+  EXPECT_TRUE(merged->device.seen_by(rsd::model::Source::usb));
+  EXPECT_EQ(merged->device.domain, 7);
+  // The USB entry's last event names where it went, typed and in its text.
+  const auto log = t.events_since(0).events;
+  ASSERT_EQ(log.size(), 3u);
+  EXPECT_EQ(log[1].entry->device.merged_into, "dds-7-x");
+  EXPECT_NE(log[1].entry->text.find(R"("merged-into":"dds-7-x")"), std::string::npos);
 }

@@ -1,0 +1,284 @@
+// The API's handlers for everything but the event stream (events.cpp): the device
+// list and lookups, Camera Discovery, the domains, participants, health, metrics,
+// the page and the spec.
+#include "api/handlers.hpp"
+
+#include "api/embedded.hpp"
+#include "api/process_stats.hpp"
+#include "rsd_model/description.hpp"
+
+#include <algorithm>
+
+namespace rsd::api {
+
+void send_json(httplib::Response& res, int status, const nlohmann::json& body) {
+  res.status = status;
+  res.set_content(dump(body) + "\n", kJson);
+}
+
+void send_error(httplib::Response& res, int status, const std::string& message) {
+  res.status = status;
+  res.set_content(error_body(status, message), kJson);
+}
+
+namespace {
+
+// The table is complete once every domain has finished its first discovery:
+// before that, a device missing from it may simply not have been heard yet, so
+// the answers say so and clients wait rather than report it gone. USB needs no
+// term of its own: UsbSource::start() has listed the cameras present before it
+// returns (hotplug ENUMERATE, or the first rescan), and main.cpp starts it before
+// the API. No domains at all: nothing to wait for.
+bool complete(const std::vector<DomainStatus>& list) {
+  return std::all_of(list.begin(), list.end(), [](const DomainStatus& d) { return d.complete; });
+}
+
+std::map<int, std::size_t> count_by_domain(const std::vector<EntryPtr>& devices) {
+  std::map<int, std::size_t> out;
+  for (const auto& e : devices)
+    if (e->device.domain) ++out[*e->device.domain];
+  return out;
+}
+
+}  // namespace
+
+std::vector<DomainStatus> Handlers::domains() const {
+  std::vector<DomainStatus> out = status.domains();
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.domain < b.domain; });
+  return out;
+}
+
+namespace {
+
+// /v1/devices bodies of the table's current generation, by query, kept by each
+// thread that serves requests (the event loops): a busy poller costs a lookup, not
+// a snapshot and a JSON dump, and the loops never wait on each other's lock for it
+// (a shared cache's mutex showed as task switches in the profile).
+struct ListCache {
+  std::uint64_t server = 0;  // Handlers::instance
+  std::uint64_t generation = 0;
+  struct Entry {
+    bool complete = false;
+    std::string query;
+    std::shared_ptr<const SharedBody> body;
+  };
+  std::vector<Entry> entries;  // a handful of distinct filters is all pollers use
+};
+thread_local ListCache tls_list_cache;
+
+}  // namespace
+
+std::shared_ptr<const SharedBody> Handlers::device_list(const DeviceFilter& filter, const std::string& query,
+                                                        bool done, std::uint64_t& generation) {
+  auto& cache = tls_list_cache;
+  if (cache.server == instance && cache.generation == table.generation())
+    for (const auto& e : cache.entries)
+      if (e.complete == done && e.query == query) {
+        generation = cache.generation;
+        return e.body;
+      }
+  const auto snap = table.snapshot();
+  // The generation lets a client list, then stream with ?since=generation,
+  // without missing or repeating an event in between. Spelled as dump() spells
+  // {"generation", "complete", "devices"} (keys sorted), from the entries' own text.
+  std::string text = done ? R"({"complete":true,"devices":[)" : R"({"complete":false,"devices":[)";
+  std::size_t size = text.size() + 40;
+  for (const auto& e : snap.devices) size += e->text.size() + 1;
+  text.reserve(size);
+  bool first = true;
+  for (const auto& e : snap.devices)
+    if (filter.matches(e->device)) {
+      if (!first) text += ',';
+      text += e->text;
+      first = false;
+    }
+  text += R"(],"generation":)" + std::to_string(snap.generation) + "}\n";
+  auto body = std::make_shared<const SharedBody>(std::move(text));
+  if (cache.server != instance || cache.generation != snap.generation) cache = {instance, snap.generation, {}};
+  if (cache.entries.size() < 16) cache.entries.push_back({done, query, body});
+  generation = snap.generation;
+  return body;
+}
+
+void Handlers::handle_devices(const httplib::Request& req, httplib::Response& res) {
+  DeviceFilter filter;
+  if (auto err = parse_device_filter(req.params, filter)) return send_error(res, 400, *err);
+  std::string query;  // the parsed parameters in order: the cache's key
+  for (const auto& [k, v] : req.params) query += k + "=" + v + "&";
+  // Completeness first, then the snapshot: "complete": true then promises that the
+  // list was taken after the first discovery ended, never just before.
+  const bool done = status.discovery_complete();
+  std::uint64_t generation = 0;
+  auto body = device_list(filter, query, done, generation);
+  // The table's generation names the body: a client that has it already gets a
+  // 304 and keeps what it parsed.
+  const std::string etag = "\"" + std::to_string(generation) + (done ? "" : "-partial") + "\"";
+  res.set_header("ETag", etag);
+  res.set_header("Cache-Control", "no-cache");
+  if (etag_matches(req.get_header_value("If-None-Match"), etag)) {
+    res.status = 304;
+    return;
+  }
+  res.status = 200;
+  // Served from the shared bytes, not copied into the response (nor, by the loop,
+  // into the socket: see SharedBody).
+  res.set_content_provider(body->bytes().size(), kJson,
+                           [body](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+                             return write_shared(sink, body, offset, length);
+                           });
+}
+
+std::vector<EntryPtr> Handlers::lookup(const std::string& name) const {
+  if (auto entry = table.find_entry(name)) return {std::move(entry)};
+  // Not an id: a serial or a topic-root names a device too (the model's rule), when it
+  // names exactly one; two cameras behind one serial must be told apart by id.
+  std::vector<EntryPtr> hits;
+  for (auto& e : table.snapshot().devices)
+    if (e->device.named_by(name)) hits.push_back(std::move(e));
+  return hits;
+}
+
+void Handlers::handle_device(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/v1/devices/{id}", req.params, {})) return send_error(res, 400, *err);
+  const std::string id = req.matches.size() > 1 ? req.matches[1].str() : "";
+  const bool done = status.discovery_complete();
+  auto hits = lookup(id);
+  if (hits.size() == 1) {
+    res.status = 200;
+    return res.set_content(hits.front()->text + "\n", kJson);
+  }
+  if (hits.size() > 1) {
+    nlohmann::json ids = nlohmann::json::array();
+    for (const auto& e : hits) ids.push_back(e->device.id);
+    return send_json(res, 409, {{"error", std::to_string(hits.size()) + " devices match '" + id +
+                                              "'; name one by its id"},
+                                {"status", 409},
+                                {"ids", std::move(ids)}});
+  }
+  // A 404 from an incomplete table may turn into a 200 in a moment: say which it
+  // is, so a client can wait instead of reporting the camera absent.
+  send_json(res, 404, {{"error", "no device with id '" + id + "'" +
+                                     (done ? "" : " (the daemon's first discovery is not complete yet)")},
+                       {"status", 404},
+                       {"complete", done}});
+}
+
+void Handlers::handle_description(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/v1/devices/{id}/description", req.params, {})) return send_error(res, 400, *err);
+  const std::string name = req.matches.size() > 1 ? req.matches[1].str() : "";
+  const auto hits = lookup(name);
+  if (hits.size() != 1)
+    return send_error(res, hits.empty() ? 404 : 409,
+                      hits.empty() ? "no device with id '" + name + "'"
+                                   : std::to_string(hits.size()) + " devices match '" + name + "'; name one by its id");
+  // Blocks this worker until the camera's server has sent its set (a few ms once
+  // asked; the first time for a device) or the describe timeout.
+  const auto answer = status.describe(hits.front()->device.id);
+  using Outcome = DeviceDescription::Outcome;
+  switch (answer.outcome) {
+    case Outcome::ok:
+      // Through the model: what is served is exactly what the clients' type reads
+      // (a drift would be a 500 here and a failing test, never a silent change).
+      return send_json(res, 200, model::to_json(model::description_from_json(answer.description)));
+    case Outcome::not_found:
+    case Outcome::not_network:
+      return send_error(res, 404, answer.error);
+    case Outcome::recovery:
+      return send_error(res, 409, answer.error);
+    case Outcome::timeout:
+      return send_error(res, 504, answer.error);
+    case Outcome::unavailable:
+      res.set_header("Retry-After", "2");
+      return send_error(res, 503, answer.error);
+  }
+}
+
+void Handlers::handle_domains(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/v1/domains", req.params, {})) return send_error(res, 400, *err);
+  const auto all = domains();
+  const auto counts = count_by_domain(table.snapshot().devices);
+  nlohmann::json list = nlohmann::json::array();
+  for (auto d : all) {
+    auto it = counts.find(d.domain);
+    d.devices = it == counts.end() ? 0 : it->second;  // the table is the truth the other routes show
+    list.push_back(domain_status_json(d));
+  }
+  send_json(res, 200, {{"complete", complete(all)}, {"domains", std::move(list)}});
+}
+
+void Handlers::handle_participants(const httplib::Request& req, httplib::Response& res) {
+  ParticipantFilter filter;
+  if (auto err = parse_participant_filter(req.params, filter)) return send_error(res, 400, *err);
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& p : status.participants())
+    if (filter.matches(p)) list.push_back(model::to_json(p));
+  send_json(res, 200, {{"participants", std::move(list)}});
+}
+
+void Handlers::handle_page(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/", req.params, {})) return send_error(res, 400, *err);
+  // The page runs its own inline script and style and talks to this origin only;
+  // nothing else may load into it, and no other site may frame it.
+  res.set_header("Content-Security-Policy",
+                 "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; connect-src 'self'; "
+                 "frame-ancestors 'none'; base-uri 'none'; form-action 'none'");
+  res.set_header("X-Content-Type-Options", "nosniff");
+  res.set_header("Referrer-Policy", "no-referrer");
+  res.set_header("Cache-Control", "no-cache");
+  res.set_content(std::string(embedded::web_page), "text/html; charset=utf-8");
+}
+
+void Handlers::handle_spec(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/openapi.yaml", req.params, {})) return send_error(res, 400, *err);
+  res.set_header("X-Content-Type-Options", "nosniff");
+  res.set_header("Cache-Control", "no-cache");
+  res.set_content(std::string(embedded::openapi_yaml), "application/yaml");
+}
+
+void Handlers::handle_health(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/healthz", req.params, {})) return send_error(res, 400, *err);
+  model::Health health;
+  health.version = version;
+  health.complete = status.discovery_complete();
+  {
+    const auto snap = table.snapshot();
+    health.devices = snap.devices.size();
+    health.generation = snap.generation;
+  }
+  if (const auto u = status.usb()) {
+    health.usb.state = u->state;
+    health.usb.devices = u->devices;
+    if (!u->error.empty()) health.usb.error = u->error;
+  }
+  send_json(res, 200, model::to_json(health));
+}
+
+void Handlers::handle_metrics(const httplib::Request& req, httplib::Response& res) {
+  if (auto err = check_params("/metrics", req.params, {})) return send_error(res, 400, *err);
+  MetricsInput in;
+  in.version = version;
+  in.process = read_process_stats();
+  in.domains = domains();
+  in.usb = status.usb();
+  auto snap = table.snapshot();
+  in.devices_per_domain = count_by_domain(snap.devices);
+  in.devices_total = snap.devices.size();
+  in.generation = snap.generation;
+  in.events_sent = events_sent.load();
+  in.event_streams = streams_open.load();
+  in.event_streams_rejected = streams_rejected.load();
+  if (loop) {
+    const auto ls = loop->stats();
+    in.event_streams_dropped = ls.streams_dropped;
+    in.connections = ls.connections;
+    in.connections_refused = ls.refused;
+    in.timeouts = ls.timed_out;
+    in.rejected = ls.rejected;
+  }
+  for (std::size_t code = 100; code < requests_by_status.size(); ++code)
+    if (const auto n = requests_by_status[code].load()) in.requests_by_status[static_cast<int>(code)] = n;
+  res.status = 200;
+  res.set_content(render_metrics(in), "text/plain; version=0.0.4; charset=utf-8");
+}
+
+}  // namespace rsd::api
