@@ -151,6 +151,7 @@ int main(int argc, char** argv) {
   api_options.unix_socket = config.socket_path;
   api_options.http_host = config.http_host;
   api_options.http_port = config.http_port;
+  api_options.http_configured = config.http_set;
   api_options.allowed_hosts = config.allowed_hosts;
   api_options.max_connections = config.max_clients;
   try {

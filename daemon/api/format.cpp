@@ -2,6 +2,10 @@
 
 #include "status/reasons.hpp"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
 #include <algorithm>
 #include <charconv>
 #include <cstdio>
@@ -178,6 +182,43 @@ std::string sse_comment(std::string_view text) {
 }
 
 nlohmann::json domain_status_json(const DomainStatus& s) { return model::to_json(s); }
+
+namespace {
+
+std::string host_port(const std::string& host, int port) {
+  const bool v6 = host.find(':') != std::string::npos;
+  return (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
+}
+
+// A numeric address in the form inet_ntop writes it ("::1" for "0:0::1"); nullopt
+// for a host name.
+std::optional<std::string> numeric_address(const std::string& host) {
+  unsigned char raw[sizeof(in6_addr)];
+  char text[INET6_ADDRSTRLEN] = {};
+  for (int family : {AF_INET, AF_INET6})
+    if (inet_pton(family, host.c_str(), raw) == 1 && inet_ntop(family, raw, text, sizeof text)) return text;
+  return std::nullopt;
+}
+
+}  // namespace
+
+model::HttpHealth http_health(const std::string& config_host, int config_port, bool config_set,
+                              const std::string& bound_host, int bound_port, bool from_systemd) {
+  model::HttpHealth h;
+  h.from = from_systemd ? "systemd" : "config";
+  h.listening = bound_port > 0 ? host_port(bound_host, bound_port) : "";
+  h.configured = !config_set ? "" : config_host.empty() ? "off" : host_port(config_host, config_port);
+  if (!from_systemd || !config_set) return h;
+  if (config_host.empty()) {
+    h.agrees = h.listening.empty();
+  } else if (h.listening.empty() || config_port != bound_port) {
+    h.agrees = false;
+  } else {
+    const auto address = numeric_address(config_host);
+    h.agrees = !address || *address == bound_host;
+  }
+  return h;
+}
 
 std::string prometheus_label_value(std::string_view raw) {
   std::string out;

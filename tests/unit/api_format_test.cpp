@@ -332,3 +332,36 @@ TEST(ApiMetrics, DeprecatedDeviceGaugeSaysSoAndMatches) {
   EXPECT_NE(text.find("rsd_domain_devices{domain=\"3\"} 2\n"), std::string::npos) << text;
   EXPECT_NE(text.find("rsd_devices{domain=\"3\"} 2\n"), std::string::npos) << text;
 }
+
+// Under socket activation the socket unit's address wins; /healthz "http" says
+// whether the configuration names the same one.
+TEST(ApiHttpHealth, AgreesUnlessAPassedSocketIsElsewhere) {
+  // Bound by the daemon itself: the configured address, always.
+  auto h = http_health("127.0.0.1", 8035, true, "127.0.0.1", 8035, false);
+  EXPECT_TRUE(h.agrees);
+  EXPECT_EQ(h.from, "config");
+  EXPECT_EQ(h.listening, "127.0.0.1:8035");
+  EXPECT_EQ(h.configured, "127.0.0.1:8035");
+  // From systemd, elsewhere: by port, by address, or HTTP configured off.
+  h = http_health("127.0.0.1", 8035, true, "127.0.0.1", 8036, true);
+  EXPECT_FALSE(h.agrees);
+  EXPECT_EQ(h.from, "systemd");
+  EXPECT_EQ(h.listening, "127.0.0.1:8036");
+  EXPECT_FALSE(http_health("127.0.0.1", 8035, true, "0.0.0.0", 8035, true).agrees);
+  EXPECT_FALSE(http_health("127.0.0.1", 8035, true, "::", 8035, true).agrees);
+  h = http_health("", 8035, true, "127.0.0.1", 8035, true);
+  EXPECT_FALSE(h.agrees);
+  EXPECT_EQ(h.configured, "off");
+  // The same address however written; a host name by its port; nothing named.
+  EXPECT_TRUE(http_health("0:0::1", 8035, true, "::1", 8035, true).agrees);
+  EXPECT_EQ(http_health("::1", 8035, true, "::1", 8035, true).listening, "[::1]:8035");
+  EXPECT_TRUE(http_health("localhost", 8035, true, "127.0.0.1", 8035, true).agrees);
+  EXPECT_FALSE(http_health("localhost", 8035, true, "127.0.0.1", 9000, true).agrees);
+  h = http_health("127.0.0.1", 8035, false, "127.0.0.1", 9000, true);
+  EXPECT_TRUE(h.agrees);
+  EXPECT_EQ(h.configured, "");
+  // No HTTP at all.
+  h = http_health("", 0, true, "", 0, false);
+  EXPECT_TRUE(h.agrees);
+  EXPECT_EQ(h.listening, "");
+}
