@@ -76,12 +76,10 @@ int main(int argc, char** argv) {
   try {
     cl = rsd::parse_command_line(argc, argv);
   } catch (const rsd::ConfigError& e) {
-    if (checking) {
-      std::fprintf(stderr, "rs-discoveryd: %s\n", rsd::locate_config_error(e.what()).c_str());
-      return 1;
-    }
-    std::fprintf(stderr, "rs-discoveryd: %s\n", e.what());
-    return 2;
+    // At its line and column either way: a start under systemd says it as clearly
+    // as --check-config would (the unit runs no ExecStartPre= check for it).
+    std::fprintf(stderr, "rs-discoveryd: %s\n", rsd::locate_config_error(e.what()).c_str());
+    return checking ? 1 : 2;
   }
   if (cl.action == rsd::CommandAction::check_config) {
     const rsd::Config& c = cl.config;
@@ -151,6 +149,7 @@ int main(int argc, char** argv) {
   api_options.unix_socket = config.socket_path;
   api_options.http_host = config.http_host;
   api_options.http_port = config.http_port;
+  api_options.http_configured = config.http_set;
   api_options.allowed_hosts = config.allowed_hosts;
   api_options.max_connections = config.max_clients;
   try {

@@ -500,6 +500,33 @@ void check_devices(Report& r, const std::vector<rsdiscovery::Device>& devices, c
     r.add(Verdict::ok, "usb", "the daemon watches USB (" + state + ")");
 }
 
+// The HTTP address, which lives in two places under systemd: the socket unit's
+// ListenStream= (what the daemon listens on) and the configuration's "http" (what
+// clients and this command go by when the daemon cannot be asked). The daemon says
+// whether they agree (/healthz "http"; older daemons do not).
+void check_http(Report& r, const rsdiscovery::Health& health) {
+  const auto doc = nlohmann::json::parse(health.json, nullptr, false);
+  if (!doc.is_object() || !doc.contains("http") || !doc["http"].is_object()) return;
+  const auto& http = doc["http"];
+  const std::string listening = http.value("listening", ""), configured = http.value("configured", "");
+  const bool systemd = http.value("from", "") == "systemd";
+  if (!http.value("agrees", true)) {
+    r.add(Verdict::warn, "http",
+          "the daemon listens for HTTP on " + (listening.empty() ? std::string("nothing") : listening) +
+              " (its socket unit's ListenStream=), but its configuration's \"http\" says " + configured +
+              ": clients going by the configuration find no daemon there. Under systemd the socket unit decides: "
+              "change the address with 'systemctl edit rs-discoveryd.socket', and make \"http\" the same or leave "
+              "it out");
+    return;
+  }
+  if (listening.empty())
+    r.add(Verdict::info, "http", "the daemon does not listen for HTTP (\"http\": \"off\"): only its Unix socket answers");
+  else
+    r.add(Verdict::ok, "http", "the daemon listens for HTTP on " + listening +
+                                   (systemd ? " (its socket unit's" + std::string(configured.empty() ? ")" : ", as configured)")
+                                            : ""));
+}
+
 // ---- when the daemon cannot be asked --------------------------------------------------
 
 std::string user_name(uid_t uid) {
@@ -627,6 +654,7 @@ int run(const ParsedArgs& args) {
   } else
     report.add(Verdict::info, "interface", "the daemon is on another host: its network is not checked from here");
   check_devices(report, devices, health);
+  check_http(report, health);
   report.add(Verdict::info, "cameras", std::to_string(devices.size()) + " camera" + (devices.size() == 1 ? "" : "s") +
                                            " listed ('rs-discover list')");
   return report.print(args.has("json"));
@@ -645,7 +673,8 @@ const Command kDoctorCommand = {
     "(a firewall on the domain's UDP ports), realdds servers whose cameras never arrive,\n"
     "a topic-root announced by two servers, link-local or container-bridge addresses,\n"
     "and, when the daemon runs on this host, its multicast route and which network the\n"
-    "participants are on; USB cameras on a USB 2 link and USB the daemon cannot watch.\n"
+    "participants are on; USB cameras on a USB 2 link and USB the daemon cannot watch;\n"
+    "an HTTP address in the configuration that its socket unit does not listen on.\n"
     "Exit status 0 when nothing found explains a missing camera, 1 when a line says\n"
     "'warn' or 'fail' (a likely cause); 'info' lines are worth knowing and explain none.",
     {

@@ -223,6 +223,15 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
       configure(*http_server, true);
       listeners.push_back({http_fd, http_server.get(), true, where});
     }
+    http_status = http_health(opts.http_host, opts.http_port, opts.http_configured,
+                              http_fd >= 0 ? bound_address(http_fd) : "", bound_http_port, opts.inherited_http_fd >= 0);
+    // The socket unit decides under systemd; a configuration naming another address
+    // was changed in one place only, and clients going by it find nothing there.
+    if (!http_status.agrees)
+      log::warning("api: HTTP listens on " + http_status.listening +
+                   " (the socket unit's ListenStream=), but the configuration's \"http\" is " + http_status.configured +
+                   ": under systemd the socket unit decides; change the address there ('systemctl edit "
+                   "rs-discoveryd.socket') and make \"http\" the same, or leave it out");
 
     LoopOptions lo;
     lo.threads = opts.loop_threads;
@@ -285,6 +294,7 @@ void ApiServer::Impl::stop_locked() {
     socket_path.clear();
   }
   bound_http_port = 0;
+  http_status = {};
   started = false;
 }
 

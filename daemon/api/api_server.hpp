@@ -16,6 +16,9 @@ struct ApiOptions {
   std::string unix_socket;  // path; empty: no Unix socket
   std::string http_host;    // empty: no HTTP
   int http_port = 0;
+  // The configuration named http_host:http_port (or "off"), rather than leaving the
+  // default: a passed HTTP socket elsewhere is then a disagreement (/healthz "http").
+  bool http_configured = false;
   // Already-bound listening sockets handed over by systemd (-1: none): when set,
   // the server listens on them instead of binding the path/port itself.
   int inherited_unix_fd = -1;

@@ -1,5 +1,11 @@
 #include "api/format.hpp"
 
+#include "status/reasons.hpp"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
 #include <algorithm>
 #include <charconv>
 #include <cstdio>
@@ -174,6 +180,43 @@ std::string sse_comment(std::string_view text) {
 
 nlohmann::json domain_status_json(const DomainStatus& s) { return model::to_json(s); }
 
+namespace {
+
+std::string host_port(const std::string& host, int port) {
+  const bool v6 = host.find(':') != std::string::npos;
+  return (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
+}
+
+// A numeric address in the form inet_ntop writes it ("::1" for "0:0::1"); nullopt
+// for a host name.
+std::optional<std::string> numeric_address(const std::string& host) {
+  unsigned char raw[sizeof(in6_addr)];
+  char text[INET6_ADDRSTRLEN] = {};
+  for (int family : {AF_INET, AF_INET6})
+    if (inet_pton(family, host.c_str(), raw) == 1 && inet_ntop(family, raw, text, sizeof text)) return text;
+  return std::nullopt;
+}
+
+}  // namespace
+
+model::HttpHealth http_health(const std::string& config_host, int config_port, bool config_set,
+                              const std::string& bound_host, int bound_port, bool from_systemd) {
+  model::HttpHealth h;
+  h.from = from_systemd ? "systemd" : "config";
+  h.listening = bound_port > 0 ? host_port(bound_host, bound_port) : "";
+  h.configured = !config_set ? "" : config_host.empty() ? "off" : host_port(config_host, config_port);
+  if (!from_systemd || !config_set) return h;
+  if (config_host.empty()) {
+    h.agrees = h.listening.empty();
+  } else if (h.listening.empty() || config_port != bound_port) {
+    h.agrees = false;
+  } else {
+    const auto address = numeric_address(config_host);
+    h.agrees = !address || *address == bound_host;
+  }
+  return h;
+}
+
 std::string prometheus_label_value(std::string_view raw) {
   std::string out;
   for (char c : raw) {
@@ -237,10 +280,15 @@ std::string render_metrics(const MetricsInput& in) {
   // alert on "devices == 0" works for a domain that never saw one.
   std::map<int, std::size_t> per_domain = in.devices_per_domain;
   for (const auto& d : in.domains) per_domain.try_emplace(d.domain, 0);
-  w.family("rsd_devices", "gauge", "Devices in the table, by DDS domain.");
+  // rsd_domain_devices is the per-domain count, named like the other rsd_domain_*
+  // families; rsd_devices was its documented name in 0.1.0 and stays, the same
+  // values, for one release so that dashboards can move (issue 23).
+  w.family("rsd_domain_devices", "gauge", "Devices in the table, by DDS domain (rsd_table_devices: all sources).");
+  for (const auto& [domain, n] : per_domain) w.sample("rsd_domain_devices", {{"domain", std::to_string(domain)}}, n);
+  w.family("rsd_devices", "gauge", "Deprecated, removed in the next release: use rsd_domain_devices (the same values).");
   for (const auto& [domain, n] : per_domain) w.sample("rsd_devices", {{"domain", std::to_string(domain)}}, n);
 
-  w.family("rsd_table_devices", "gauge", "Devices in the table, all sources.");
+  w.family("rsd_table_devices", "gauge", "Devices in the table, all sources (DDS and USB).");
   w.sample("rsd_table_devices", {}, in.devices_total);
   w.family("rsd_table_generation", "gauge", "Generation of the last table event (the SSE id).");
   w.sample("rsd_table_generation", {}, in.generation);
@@ -288,14 +336,19 @@ std::string render_metrics(const MetricsInput& in) {
         w.sample(f.name, {{"domain", std::to_string(d.domain)}}, f.value(d));
         continue;
       }
-      for (const auto& [reason, n] : d.rejected)  // the one keyed by reason too
+      // The one keyed by reason too: every reason the source gives is there at 0
+      // from the start; others (notification-*) once counted.
+      std::map<std::string, std::uint64_t> by_reason = d.rejected;
+      for (const char* reason : kParseRejectReasons) by_reason.try_emplace(reason, 0);
+      for (const char* reason : kBookRejectReasons) by_reason.try_emplace(reason, 0);
+      for (const auto& [reason, n] : by_reason)
         w.sample(f.name, {{"domain", std::to_string(d.domain)}, {"reason", reason}}, n);
     }
   }
 
   w.family("rsd_writers_refused_total", "counter", "device-info writers refused by a writer cap, by reason.");
   for (const auto& d : in.domains)
-    for (const char* reason : {"participant-writer-limit", "domain-writer-limit"}) {  // 0 until it happens
+    for (const char* reason : kWriterRefusedReasons) {  // 0 until it happens
       const auto n = d.writers_refused.find(reason);
       w.sample("rsd_writers_refused_total", {{"domain", std::to_string(d.domain)}, {"reason", reason}},
                n == d.writers_refused.end() ? 0 : n->second);
@@ -325,7 +378,10 @@ std::string render_metrics(const MetricsInput& in) {
            "Requests refused before parsing: 414, 431, 413 or a bad Content-Length.", in.rejected);
 
   w.family("rsd_api_requests_total", "counter", "API requests answered, by HTTP status.");
-  for (const auto& [status, n] : in.requests_by_status)
+  // The statuses the routes answer, at 0 from the start; any other once counted.
+  std::map<int, std::uint64_t> by_status = in.requests_by_status;
+  for (int status : kRouteStatuses) by_status.try_emplace(status, 0);
+  for (const auto& [status, n] : by_status)
     w.sample("rsd_api_requests_total", {{"status", std::to_string(status)}}, n);
 
   if (in.process) {  // the names every Prometheus client library uses

@@ -101,6 +101,20 @@ struct ProcessStats {
   double start_time_seconds = 0;  // since the Unix epoch
 };
 
+// /healthz "http": where HTTP listens (`bound_*`, "" and 0 without HTTP) against
+// what the configuration names (`config_set`: the file or a flag named it; an empty
+// host: "off"). Only a socket passed by systemd can disagree: the daemon binds the
+// configured address itself otherwise. A configured host name (not an address) is
+// compared by its port alone.
+model::HttpHealth http_health(const std::string& config_host, int config_port, bool config_set,
+                              const std::string& bound_host, int bound_port, bool from_systemd);
+
+// The statuses the routes answer (rsd_api_requests_total shows each at 0 from the
+// start). 408, 413, 414, 431 and the 503 at the connection limit are the
+// connection loop's, counted apart (rsd_api_requests_rejected_total,
+// rsd_api_timeouts_total, rsd_api_connections_refused_total).
+inline constexpr int kRouteStatuses[] = {200, 304, 400, 404, 405, 409, 421, 500, 503};
+
 // Everything /metrics reports, gathered by the server at request time.
 struct MetricsInput {
   std::optional<ProcessStats> process;  // nothing when /proc could not be read

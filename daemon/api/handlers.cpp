@@ -245,6 +245,7 @@ void Handlers::handle_health(const httplib::Request& req, httplib::Response& res
     health.devices = snap.devices.size();
     health.generation = snap.generation;
   }
+  health.http = http_status;
   if (const auto u = status.usb()) {
     health.usb.state = u->state;
     health.usb.devices = u->devices;

@@ -45,6 +45,9 @@ class Handlers {
   // The running loop, for /metrics; null while stopped (set and cleared by the
   // server with no request in flight).
   ServerLoop* loop = nullptr;
+  // /healthz "http": where HTTP listens against what the configuration names
+  // (set by the server's start with no request in flight).
+  model::HttpHealth http_status;
 
   // Names these handlers in the threads' list caches (see device_list).
   const std::uint64_t instance = next_instance++;

@@ -27,6 +27,7 @@ int parse_domain(const std::string& text, const std::string& where) {
 
 // "HOST:PORT", "[v6]:PORT" or "off".
 void parse_http(const std::string& text, Config& config, const std::string& where) {
+  config.http_set = true;
   if (text == "off") {
     config.http_host.clear();
     return;
@@ -323,6 +324,7 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
   if (set_http) {
     config.http_host = flags_only.http_host;
     config.http_port = flags_only.http_port;
+    config.http_set = true;
   }
   if (set_usb) config.usb = flags_only.usb;
   if (set_name) config.participant_name = flags_only.participant_name;

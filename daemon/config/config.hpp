@@ -21,6 +21,10 @@ struct Config {
   std::string socket_path;  // "" : no Unix socket
   std::string http_host = "127.0.0.1";  // "" : no HTTP
   int http_port = kDefaultHttpPort;
+  // The file or a flag named the HTTP address (or turned it off). Under socket
+  // activation the socket unit's address wins; one named here that differs from it
+  // is reported (log, /healthz "http", rs-discover doctor), the default is not.
+  bool http_set = false;
   bool usb = true;
   std::string participant_name = "rs-discoveryd";
   std::string log_level = "info";

@@ -3,6 +3,8 @@
 // kind of bad input is unit-tested and fuzzed without a network.
 #pragma once
 
+#include "status/reasons.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
@@ -35,11 +37,9 @@ struct Rejected {
 
 using Parsed = std::variant<DeviceInfo, Stopping, Rejected>;
 
-// The reasons parse_device_info() may give, for documentation and metrics.
-inline constexpr const char* kRejectReasons[] = {
-    "unknown-format", "custom-format", "too-large", "empty",        "invalid-utf8",
-    "not-json",       "bad-cbor",      "too-deep",  "not-object",   "missing-name",
-    "missing-topic-root"};
+// The reasons parse_device_info() may give, for documentation and metrics: one list,
+// which the API reads too (status/reasons.hpp).
+inline constexpr const auto& kRejectReasons = kParseRejectReasons;
 
 Parsed parse_device_info(std::int32_t format, std::span<const std::uint8_t> data);
 

@@ -31,6 +31,11 @@ constexpr const char* status = "status";
 constexpr const char* version = "version";
 constexpr const char* generation = "generation";
 constexpr const char* usb = "usb";
+constexpr const char* http = "http";
+constexpr const char* listening = "listening";
+constexpr const char* configured = "configured";
+constexpr const char* from = "from";
+constexpr const char* agrees = "agrees";
 }  // namespace key
 
 }  // namespace
@@ -118,8 +123,14 @@ nlohmann::json to_json(const Health& h) {
   nlohmann::json usb = {{key::state, h.usb.state}};
   if (h.usb.devices) usb[key::devices] = *h.usb.devices;
   if (h.usb.error) usb[key::error] = *h.usb.error;
-  return {{key::status, h.status},         {key::version, h.version},   {key::devices, h.devices},
-          {key::generation, h.generation}, {key::complete, h.complete}, {key::usb, std::move(usb)}};
+  nlohmann::json doc = {{key::status, h.status},         {key::version, h.version},   {key::devices, h.devices},
+                        {key::generation, h.generation}, {key::complete, h.complete}, {key::usb, std::move(usb)}};
+  if (h.http)
+    doc[key::http] = {{key::listening, h.http->listening},
+                      {key::configured, h.http->configured},
+                      {key::from, h.http->from},
+                      {key::agrees, h.http->agrees}};
+  return doc;
 }
 
 Health health_from_json(const nlohmann::json& doc) {
@@ -136,6 +147,16 @@ Health health_from_json(const nlohmann::json& doc) {
   h.usb.state = text(usb, key::state, what);
   if (usb.contains(key::devices)) h.usb.devices = count(usb, key::devices, what);
   if (usb.contains(key::error)) h.usb.error = text(usb, key::error, what);
+  if (doc.contains(key::http)) {  // older daemons leave it out
+    const auto& http = member(doc, key::http, what);
+    want_object(http, "/healthz \"http\"");
+    HttpHealth out;
+    out.listening = text(http, key::listening, what);
+    out.configured = text(http, key::configured, what);
+    out.from = text(http, key::from, what);
+    out.agrees = flag(http, key::agrees, what);
+    h.http = out;
+  }
   return h;
 }
 

@@ -3,6 +3,7 @@ bodies, health, metrics, the event stream, and responses checked against
 proto/openapi.yaml, with real realdds servers (pyrealsense2) as the devices."""
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -65,13 +66,41 @@ def test_error_bodies(daemon, free_domain):
         assert status == 405 and headers["allow"] == "GET, HEAD"
 
 
+def test_every_documented_counter_is_there_from_the_start(daemon, free_domain):
+    """An alert on rate() or increase() sees a counter only once it exists: each one
+    the spec lists has its samples at 0 in the first scrape, before anything happened."""
+    description = spec()["paths"]["/metrics"]["get"]["description"]
+    documented = set(re.findall(r"\b((?:rsd|process)_[a-z_]+)", description))
+    d = daemon([free_domain])
+    _, _, body = request(d.socket, "/metrics")  # nothing happened but the fixture's readiness checks
+    text = body.decode()
+    types = dict(line.split()[2:4] for line in text.splitlines() if line.startswith("# TYPE "))
+    samples = parse_metrics(text)
+    counters = sorted(name for name in documented if types.get(name) == "counter")
+    assert {"rsd_messages_rejected_total", "rsd_api_requests_total", "process_cpu_seconds_total"} <= set(counters)
+    assert all(name in types for name in documented if not name.startswith("rsd_usb_")), \
+        sorted(documented - set(types))  # --no-usb: no USB families
+    for name in counters:
+        values = [v for (n, _), v in samples.items() if n == name]
+        assert values, f"{name}: no sample in a fresh daemon's /metrics"
+    dom = str(free_domain)
+    for reason in ("not-json", "too-large", "missing-name", "domain-device-limit", "refused-writer"):
+        assert metric(samples, "rsd_messages_rejected_total", domain=dom, reason=reason) == 0, reason
+    for status in ("404", "409", "503"):  # 200: the fixture asked until the daemon was ready
+        assert metric(samples, "rsd_api_requests_total", status=status) == 0, status
+    # One name for the per-domain count; the 0.1.0 name stays, said deprecated, for a release.
+    assert metric(samples, "rsd_domain_devices", domain=dom) == 0
+    assert metric(samples, "rsd_devices", domain=dom) == 0
+    assert "# HELP rsd_devices Deprecated" in text
+
+
 def test_metrics_parse(daemon, free_domain):
     d = daemon([free_domain])
     curl(d.socket, "/nope")
     status, headers, body = request(d.socket, "/metrics")
     assert status == 200 and headers["content-type"].startswith("text/plain; version=0.0.4")
     m = parse_metrics(body.decode())
-    assert metric(m, "rsd_devices", domain=str(free_domain)) == 0
+    assert metric(m, "rsd_domain_devices", domain=str(free_domain)) == 0
     assert metric(m, "rsd_messages_accepted_total", domain=str(free_domain)) == 0
     assert metric(m, "rsd_events_sent_total") == 0
     assert metric(m, "rsd_domain_up", domain=str(free_domain), state="running") == 1
@@ -122,7 +151,7 @@ def test_real_device_listed_validated_and_streamed(daemon, free_domain, realdds_
     # The event is counted once written, so the stream's reader may have had it first.
     m = wait_for(lambda: (lambda x: x if metric(x, "rsd_events_sent_total") >= 1 else None)(
         parse_metrics(request(d.socket, "/metrics")[2].decode())), what="the added event counted")
-    assert metric(m, "rsd_devices", domain=str(free_domain)) == 1
+    assert metric(m, "rsd_domain_devices", domain=str(free_domain)) == 1
 
     # Miss the removal while disconnected, then resume from the last id seen.
     stream.close()

@@ -290,7 +290,7 @@ def test_metrics(harness):
     # Requests are counted once their answer is out, so the client may be faster.
     m = wait_for(lambda: (lambda x: x if metric(x, "rsd_api_requests_total", status="404") else None)(
         parse_metrics(request(h.socket, "/metrics")[2].decode())), what="the 404 counted")
-    assert metric(m, "rsd_devices", domain="4") == 1
+    assert metric(m, "rsd_domain_devices", domain="4") == 1
     assert metric(m, "rsd_messages_accepted_total", domain="4") == 9
     assert metric(m, "rsd_messages_rejected_total", domain="4", reason="bad-cbor") == 1
     assert metric(m, "rsd_api_requests_total", status="404") == 1

@@ -136,6 +136,12 @@ TEST(StatusModel, HealthRoundTripsAndUsbOffHasNoCount) {
   doc = rsd::model::to_json(h);
   EXPECT_EQ(doc["usb"]["error"], "no /dev/bus/usb");
   EXPECT_EQ(rsd::model::to_json(rsd::model::health_from_json(doc)), doc);
+  EXPECT_FALSE(doc.contains("http"));  // as an older daemon's
+  h.http = rsd::model::HttpHealth{"127.0.0.1:8036", "127.0.0.1:8035", "systemd", false};
+  doc = rsd::model::to_json(h);
+  EXPECT_EQ(doc["http"], nlohmann::json({{"listening", "127.0.0.1:8036"}, {"configured", "127.0.0.1:8035"},
+                                         {"from", "systemd"}, {"agrees", false}}));
+  EXPECT_EQ(rsd::model::to_json(rsd::model::health_from_json(doc)), doc);
 }
 
 TEST(StatusModel, MalformedDocumentsAreNamed) {

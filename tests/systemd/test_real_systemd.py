@@ -359,9 +359,18 @@ def test_reload_adds_a_domain_survives_an_invalid_file_and_goes_back(system):
     wait_for(lambda: status_text(c).startswith("0 devices on DDS domains 0,3,9"), timeout=10, what="STATUS=")
 
     c.run("sh", "-c", "echo '{\"domains\": [0,' > /etc/rs-discoveryd/config.json")
-    c.run("systemctl", "reload", SERVICE)
-    wait_for(lambda: "reload failed" in status_text(c), timeout=10, what="STATUS= saying the reload failed")
+    # ExecReload checks the file first: `systemctl reload` fails, the error at its
+    # line and column in the journal, and the daemon is never signalled.
+    r = c.run("systemctl", "reload", SERVICE, check=False)
+    assert r.returncode != 0, (r.stdout, r.stderr)
+    wait_for(lambda: any("/etc/rs-discoveryd/config.json:2:1" in m for _, m in journal(c)), timeout=10,
+             what="the reload's error, with its line and column, in the journal")
     assert domains(c) == [0, 3, 9]  # still the running configuration
+    # A SIGHUP that bypasses the check (kill -HUP, an older unit) is refused by the
+    # daemon itself, which keeps running what it had and says so in STATUS=.
+    c.run("systemctl", "kill", "--kill-who=main", "--signal=HUP", SERVICE)
+    wait_for(lambda: "reload failed" in status_text(c), timeout=10, what="STATUS= saying the reload failed")
+    assert domains(c) == [0, 3, 9]
     assert c.run("systemctl", "is-active", SERVICE).stdout.strip() == "active"
 
     write_config(c, domains=[0])

@@ -15,6 +15,7 @@ from conftest import DAEMON, free_port, wait_for
 
 ACTIVATE = "/usr/bin/systemd-socket-activate"
 RESTARTS = int(os.environ.get("RSD_RESTARTS", "10"))  # the restart-under-load case; more by hand
+CLI = os.path.join(os.environ.get("RSD_BUILD_DIR", ""), "client", "rs-discover")
 
 
 def curl(*args, timeout=20):
@@ -33,7 +34,7 @@ def sanitizer_env_args():
 
 
 class Activator:
-    def __init__(self, tmp_path, domain, fdnames=None, extra=()):
+    def __init__(self, tmp_path, domain, fdnames=None, extra=(), http="127.0.0.1:1"):
         self.socket = str(tmp_path / "activated.sock")
         self.port = free_port()
         self.own_socket = str(tmp_path / "own.sock")  # configured, but systemd's socket wins
@@ -41,7 +42,7 @@ class Activator:
         if fdnames:
             cmd.append("--fdname=" + fdnames)
         cmd += [DAEMON, "--domain", str(domain), "--no-usb", "--log-level", "debug", "--socket", self.own_socket,
-                "--http", "127.0.0.1:1", *extra]
+                "--http", http.format(port=self.port), *extra]
         self.log_path = str(tmp_path / "activator.log")
         self._log = open(self.log_path, "wb")
         # systemd-socket-activate listens first, then execs the daemon in its own
@@ -85,6 +86,44 @@ def test_activated_on_unix_socket_and_tcp_port(tmp_path, domains, fdnames):
         assert a.stop() == 0
         # systemd owns the socket file: the daemon leaves it in place.
         assert os.path.exists(a.socket)
+    finally:
+        a.stop()
+
+
+def doctor(a):
+    r = subprocess.run([CLI, "--endpoint", "unix:" + a.socket, "doctor", "--listen", "0", "--json"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode in (0, 1), r.stderr  # 1: a warning (this one, or no camera server heard)
+    return r.returncode, [f for f in json.loads(r.stdout)["findings"] if f["topic"] == "http"]
+
+
+def test_doctor_warns_when_the_configured_http_address_is_not_the_socket_units(tmp_path, domains):
+    """Under systemd the socket unit's ListenStream= decides where HTTP listens; a
+    configuration naming another address was changed in one place only."""
+    elsewhere = free_port()
+    a = Activator(tmp_path, domains.take(60, 79), http=f"127.0.0.1:{elsewhere}")
+    try:
+        health = curl(f"http://127.0.0.1:{a.port}/healthz")
+        assert health["http"] == {"listening": f"127.0.0.1:{a.port}", "configured": f"127.0.0.1:{elsewhere}",
+                                  "from": "systemd", "agrees": False}, health
+        _, http = doctor(a)
+        assert [f["verdict"] for f in http] == ["warn"], http
+        assert f"127.0.0.1:{a.port}" in http[0]["text"] and f"127.0.0.1:{elsewhere}" in http[0]["text"]
+        assert "systemctl edit rs-discoveryd.socket" in http[0]["text"]
+        assert f"api: HTTP listens on 127.0.0.1:{a.port} (the socket unit's ListenStream=), but the " \
+               f"configuration's \"http\" is 127.0.0.1:{elsewhere}" in a.log()
+    finally:
+        a.stop()
+
+
+def test_doctor_is_content_when_the_addresses_agree(tmp_path, domains):
+    a = Activator(tmp_path, domains.take(60, 79), http="127.0.0.1:{port}")
+    try:
+        health = curl(f"http://127.0.0.1:{a.port}/healthz")
+        assert health["http"]["agrees"] is True and health["http"]["from"] == "systemd", health
+        _, http = doctor(a)
+        assert [f["verdict"] for f in http] == ["ok"], http
+        assert "HTTP listens" not in a.log()
     finally:
         a.stop()
 

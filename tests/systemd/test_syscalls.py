@@ -120,3 +120,23 @@ def test_every_system_call_and_socket_family_is_allowed_by_the_unit(tmp_path, do
     denied = sorted(used - allowed - {"execve"})
     assert not denied, f"the unit's SystemCallFilter= would refuse: {denied}"
     assert used_families <= families, f"the unit's RestrictAddressFamilies= would refuse: {used_families - families}"
+
+
+def test_the_reload_check_needs_no_system_call_the_unit_refuses(tmp_path):
+    """ExecReload= runs `rs-discoveryd --check-config` under the same filter."""
+    allowed, _ = unit_filter()
+    config = tmp_path / "config.json"
+    for text in ('{"domains": [0, 5], "usb": false}', '{"domains": [0,'):  # valid, then not
+        config.write_text(text)
+        trace = str(tmp_path / "strace.out")
+        r = subprocess.run(["strace", "-f", "-qq", "-o", trace, DAEMON, "--check-config", str(config)],
+                           capture_output=True, text=True, timeout=60)
+        assert r.returncode == (0 if text.endswith("}") else 1), r.stderr
+        used = set()
+        for line in open(trace):
+            m = re.match(r"\d+\s+(?:<\.\.\. )?(\w+)[( ]", line)
+            if m and m.group(1) not in ("exit", "resumed", "killed", "exited"):
+                used.add(m.group(1))
+        assert "openat" in used or "open" in used, sorted(used)
+        denied = sorted(used - allowed - {"execve"})
+        assert not denied, f"the unit's SystemCallFilter= would refuse: {denied}"

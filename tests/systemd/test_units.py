@@ -1,11 +1,13 @@
 """The unit files as systemd reads them: `systemd-analyze verify`, the offline
-security score (target: exposure <= 1.5), the sysusers entry, the default config."""
+security score (target: exposure <= 1.5), the sysusers entry, the default config,
+and the reload commands run in order as systemd runs them."""
 import os
 import re
+import shlex
 import subprocess
 
 from conftest import DAEMON, free_port
-from svc_util import SOURCE_DIR
+from svc_util import SOURCE_DIR, notify_socket, write_config  # noqa: F401  (fixture)
 
 UNITS = os.path.join(SOURCE_DIR, "systemd")
 MAX_EXPOSURE = 1.5
@@ -51,6 +53,50 @@ def test_service_contract_settings():
     sock = open(os.path.join(UNITS, "rs-discoveryd.socket")).read()
     assert "ListenStream=/run/rs-discoveryd/api.sock" in sock
     assert "ListenStream=127.0.0.1:8035" in sock
+
+
+def unit_commands(key, daemon):
+    """The service's KEY= command lines, in order, as systemd runs them: `$$` is a
+    `$` to the shell, and /usr/sbin/rs-discoveryd is `daemon` (the built binary and
+    the test's flags, as a drop-in would give ExecStart=)."""
+    lines = [l.split("=", 1)[1] for l in open(os.path.join(UNITS, "rs-discoveryd.service")).read().splitlines()
+             if l.startswith(key + "=")]
+    return [shlex.split(l.replace("$$", "$").replace("/usr/sbin/rs-discoveryd", daemon)) for l in lines]
+
+
+def systemctl_reload(daemon, pid):
+    """What `systemctl reload` does: each ExecReload= in turn, with $MAINPID, until one
+    fails; its status is the reload's."""
+    for cmd in unit_commands("ExecReload", daemon):
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=30, env=dict(os.environ, MAINPID=str(pid)))
+        if r.returncode != 0:
+            return r
+    return r
+
+
+def test_reload_refuses_an_invalid_file_with_its_line_and_column(tmp_path, daemon, domains, notify_socket):
+    a, b = domains.take(60, 79), domains.take(60, 79)
+    config = tmp_path / "config.json"
+    write_config(config, domains=[a], usb=False)
+    d = daemon([], extra=["--config", str(config)], env=notify_socket.env())
+    flags = f"{DAEMON} --config {config}"
+    notify_socket.drain()
+
+    config.write_text('{\n  "domains": [1, 999]\n}\n')
+    r = systemctl_reload(flags, d.proc.pid)
+    assert r.returncode == 1, r
+    assert f"{config}:2:3: " in r.stderr and "0 to 232" in r.stderr, r.stderr
+    # No SIGHUP was sent: the daemon never began a reload (and kept its domain).
+    assert notify_socket.seen_within(lambda m: m.get("RELOADING") == "1", 2) is None
+    assert "reload failed" not in d.log()
+    assert [x["domain"] for x in d.get_json("/v1/domains")["domains"]] == [a]
+
+    write_config(config, domains=[a, b], usb=False)
+    r = systemctl_reload(flags, d.proc.pid)
+    assert r.returncode == 0, r
+    notify_socket.wait(lambda m: m.get("RELOADING") == "1", what="RELOADING=1")
+    notify_socket.wait(lambda m: m.get("READY") == "1", what="READY=1 after the reload")
+    assert sorted(x["domain"] for x in d.get_json("/v1/domains")["domains"]) == sorted([a, b])
 
 
 def test_sysusers_makes_the_system_user(tmp_path):

@@ -1,6 +1,7 @@
 #include "api/format.hpp"
 #include "api/listener.hpp"
 #include "api/process_stats.hpp"
+#include "status/reasons.hpp"
 
 #include <gtest/gtest.h>
 
@@ -200,10 +201,11 @@ TEST(ApiMetrics, Exposition) {
   in.requests_by_status = {{200, 5}, {404, 1}};
   const std::string text = render_metrics(in);
   for (const char* line :
-       {"rsd_devices{domain=\"0\"} 3\n", "rsd_devices{domain=\"9\"} 0\n", "rsd_messages_accepted_total{domain=\"0\"} 4\n",
+       {"rsd_domain_devices{domain=\"0\"} 3\n", "rsd_domain_devices{domain=\"9\"} 0\n",
+        "rsd_devices{domain=\"0\"} 3\n", "rsd_devices{domain=\"9\"} 0\n", "rsd_messages_accepted_total{domain=\"0\"} 4\n",
         "rsd_messages_rejected_total{domain=\"0\",reason=\"bad-cbor\"} 2\n", "rsd_events_sent_total 11\n",
         "rsd_api_requests_total{status=\"404\"} 1\n", "rsd_domain_up{domain=\"9\",state=\"failed\"} 0\n",
-        "# TYPE rsd_messages_rejected_total counter\n", "# TYPE rsd_devices gauge\n",
+        "# TYPE rsd_messages_rejected_total counter\n", "# TYPE rsd_domain_devices gauge\n",
         "rsd_build_info{version=\"1.2.3\"} 1\n", "rsd_table_complete 0\n"})
     EXPECT_NE(text.find(line), std::string::npos) << line << "\nin:\n" << text;
   // Complete once every domain is; no domains: nothing to wait for.
@@ -299,4 +301,72 @@ TEST(ApiMetrics, ProcessFiguresUnderTheirUsualNames) {
                            "process_start_time_seconds 1750000000.000000\n"})
     EXPECT_NE(text.find(line), std::string::npos) << line;
   EXPECT_EQ(render_metrics(MetricsInput{}).find("process_"), std::string::npos);  // none when /proc is not there
+}
+
+// A counter that first appears at its first increment is invisible to rate() and
+// increase(): every label value the daemon knows is there at 0 from the start.
+TEST(ApiMetrics, KnownLabelValuesAreThereAtZero) {
+  MetricsInput in;
+  rsd::DomainStatus d;
+  d.domain = 7;
+  d.rejected = {{"notification-not-json", 2}};  // not a known one: still shown
+  in.domains = {d};
+  in.requests_by_status = {{200, 3}, {418, 1}};
+  const std::string text = render_metrics(in);
+  for (const char* line : {"rsd_messages_rejected_total{domain=\"7\",reason=\"not-json\"} 0\n",
+                           "rsd_messages_rejected_total{domain=\"7\",reason=\"missing-topic-root\"} 0\n",
+                           "rsd_messages_rejected_total{domain=\"7\",reason=\"domain-device-limit\"} 0\n",
+                           "rsd_messages_rejected_total{domain=\"7\",reason=\"refused-writer\"} 0\n",
+                           "rsd_messages_rejected_total{domain=\"7\",reason=\"notification-not-json\"} 2\n",
+                           "rsd_writers_refused_total{domain=\"7\",reason=\"domain-writer-limit\"} 0\n",
+                           "rsd_api_requests_total{status=\"200\"} 3\n", "rsd_api_requests_total{status=\"404\"} 0\n",
+                           "rsd_api_requests_total{status=\"503\"} 0\n", "rsd_api_requests_total{status=\"418\"} 1\n"})
+    EXPECT_NE(text.find(line), std::string::npos) << line << "\nin:\n" << text;
+  for (const char* reason : rsd::kParseRejectReasons)
+    EXPECT_NE(text.find(std::string("reason=\"") + reason + "\"} 0\n"), std::string::npos) << reason;
+}
+
+TEST(ApiMetrics, DeprecatedDeviceGaugeSaysSoAndMatches) {
+  MetricsInput in;
+  rsd::DomainStatus d;
+  d.domain = 3;
+  in.domains = {d};
+  in.devices_per_domain = {{3, 2}};
+  const std::string text = render_metrics(in);
+  EXPECT_NE(text.find("# HELP rsd_devices Deprecated"), std::string::npos) << text;
+  EXPECT_NE(text.find("rsd_domain_devices{domain=\"3\"} 2\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("rsd_devices{domain=\"3\"} 2\n"), std::string::npos) << text;
+}
+
+// Under socket activation the socket unit's address wins; /healthz "http" says
+// whether the configuration names the same one.
+TEST(ApiHttpHealth, AgreesUnlessAPassedSocketIsElsewhere) {
+  // Bound by the daemon itself: the configured address, always.
+  auto h = http_health("127.0.0.1", 8035, true, "127.0.0.1", 8035, false);
+  EXPECT_TRUE(h.agrees);
+  EXPECT_EQ(h.from, "config");
+  EXPECT_EQ(h.listening, "127.0.0.1:8035");
+  EXPECT_EQ(h.configured, "127.0.0.1:8035");
+  // From systemd, elsewhere: by port, by address, or HTTP configured off.
+  h = http_health("127.0.0.1", 8035, true, "127.0.0.1", 8036, true);
+  EXPECT_FALSE(h.agrees);
+  EXPECT_EQ(h.from, "systemd");
+  EXPECT_EQ(h.listening, "127.0.0.1:8036");
+  EXPECT_FALSE(http_health("127.0.0.1", 8035, true, "0.0.0.0", 8035, true).agrees);
+  EXPECT_FALSE(http_health("127.0.0.1", 8035, true, "::", 8035, true).agrees);
+  h = http_health("", 8035, true, "127.0.0.1", 8035, true);
+  EXPECT_FALSE(h.agrees);
+  EXPECT_EQ(h.configured, "off");
+  // The same address however written; a host name by its port; nothing named.
+  EXPECT_TRUE(http_health("0:0::1", 8035, true, "::1", 8035, true).agrees);
+  EXPECT_EQ(http_health("::1", 8035, true, "::1", 8035, true).listening, "[::1]:8035");
+  EXPECT_TRUE(http_health("localhost", 8035, true, "127.0.0.1", 8035, true).agrees);
+  EXPECT_FALSE(http_health("localhost", 8035, true, "127.0.0.1", 9000, true).agrees);
+  h = http_health("127.0.0.1", 8035, false, "127.0.0.1", 9000, true);
+  EXPECT_TRUE(h.agrees);
+  EXPECT_EQ(h.configured, "");
+  // No HTTP at all.
+  h = http_health("", 0, true, "", 0, false);
+  EXPECT_TRUE(h.agrees);
+  EXPECT_EQ(h.listening, "");
 }

@@ -78,6 +78,16 @@ struct UsbHealth {
   std::optional<std::string> error;    // why unavailable
 };
 
+// The HTTP listener as /healthz shows it. Under socket activation the socket unit
+// decides the address, whatever the configuration says; `agrees` is false when the
+// configuration names another one (it was changed in one place only).
+struct HttpHealth {
+  std::string listening;        // "HOST:PORT" ("[V6]:PORT"); "" without HTTP
+  std::string configured;       // the configuration's "http": "HOST:PORT", "off"; "" when unnamed (the default)
+  std::string from = "config";  // "config": the daemon bound it; "systemd": passed by the socket unit
+  bool agrees = true;
+};
+
 struct Health {
   std::string status = "ok";
   std::string version;
@@ -87,6 +97,7 @@ struct Health {
   // whether its device count is final yet (false for the first seconds).
   bool complete = false;
   UsbHealth usb;
+  std::optional<HttpHealth> http;  // absent from older daemons
 };
 
 // A document that is not what the spec says (a missing or mistyped key).
