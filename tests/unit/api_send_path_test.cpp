@@ -1,0 +1,116 @@
+// The API's send path, driven over socketpairs with a small send buffer so that
+// every call stops part way, as a slow client makes it: SharedBody's sealed memfd,
+// and send_pending through the splice pipe (Unix socket) and sendfile (TCP) alike.
+// Until the server loop was split these were reached only through the daemon.
+#include "api/connection.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <string>
+
+namespace {
+
+using rsd::api::Clock;
+using rsd::api::Connection;
+using rsd::api::LoopListener;
+using rsd::api::SharedBody;
+
+// A body large enough for its memfd, with bytes that show any reordering.
+std::string pattern(std::size_t n) {
+  std::string s(n, '\0');
+  for (std::size_t i = 0; i < n; ++i) s[i] = static_cast<char>('a' + (i * 7 + i / 251) % 26);
+  return s;
+}
+
+struct Pair {
+  int daemon = -1, client = -1;
+  Pair() {
+    int fds[2];
+    EXPECT_EQ(::socketpair(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0, fds), 0);
+    daemon = fds[0];
+    client = fds[1];
+    const int small = 4096;  // the kernel doubles it; still far below the bodies here
+    ::setsockopt(daemon, SOL_SOCKET, SO_SNDBUF, &small, sizeof small);
+    ::setsockopt(client, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+  }
+  ~Pair() {
+    if (daemon >= 0) ::close(daemon);
+    if (client >= 0) ::close(client);
+  }
+  std::string read_available() const {
+    std::string got;
+    char buf[8192];
+    ssize_t n;
+    while ((n = ::recv(client, buf, sizeof buf, MSG_DONTWAIT)) > 0) got.append(buf, static_cast<std::size_t>(n));
+    return got;
+  }
+};
+
+// Sends `head` then `body` on a connection of `listener` to a client that reads
+// what is there between calls; what the client got, and how many calls it took.
+std::pair<std::string, int> send_all(const LoopListener& listener, const std::string& head,
+                                     const std::shared_ptr<const SharedBody>& body) {
+  Pair pair;
+  Connection c(pair.daemon, listener);
+  c.out = head;
+  c.file = body;
+  c.file_left = body->bytes().size();
+  std::string got;
+  int calls = 0;
+  while (c.pending() > 0 && calls < 100000) {
+    EXPECT_TRUE(rsd::api::send_pending(c, Clock::now()));
+    ++calls;
+    got += pair.read_available();
+  }
+  got += pair.read_available();
+  EXPECT_EQ(c.pending(), 0u);
+  EXPECT_FALSE(c.file);  // let go once all of it is out
+  return {got, calls};
+}
+
+}  // namespace
+
+TEST(SharedBody, SmallBodiesAreCopiedLargeOnesSealedInAMemfd) {
+  EXPECT_LT(SharedBody("{\"devices\":[]}\n").fd(), 0);
+  const std::string text = pattern(100 * 1024);
+  SharedBody body(text);
+  ASSERT_GE(body.fd(), 0);
+  EXPECT_EQ(body.bytes(), text);
+  // Sealed: what a client is being sent can no longer change under it.
+  const int seals = ::fcntl(body.fd(), F_GET_SEALS);
+  EXPECT_TRUE(seals & F_SEAL_WRITE);
+  EXPECT_TRUE(seals & F_SEAL_SHRINK);
+  EXPECT_LT(::write(body.fd(), "x", 1), 0);
+  std::string back(text.size(), '\0');
+  EXPECT_EQ(::pread(body.fd(), back.data(), back.size(), 0), static_cast<ssize_t>(text.size()));
+  EXPECT_EQ(back, text);
+}
+
+TEST(SendPending, AHeadAndItsBodyArriveWholeAndInOrderOnEitherPath) {
+  const auto body = std::make_shared<const SharedBody>(pattern(300 * 1024));
+  const std::string head = "HTTP/1.1 200 OK\r\nContent-Length: 307200\r\n\r\n";
+  LoopListener unix_socket;  // head and body spliced through this thread's pipe
+  LoopListener tcp;          // head with MSG_MORE, then sendfile
+  tcp.http = true;
+  for (const auto* listener : {&unix_socket, &tcp}) {
+    const auto [got, calls] = send_all(*listener, head, body);
+    EXPECT_EQ(got.size(), head.size() + body->bytes().size()) << listener->http;
+    EXPECT_TRUE(got == head + body->bytes()) << "bytes out of order, http=" << listener->http;
+    EXPECT_GT(calls, 1) << "the small buffer should have stopped a call part way";
+  }
+}
+
+TEST(SendPending, AClientGoneMarksTheConnectionBroken) {
+  Pair pair;
+  LoopListener listener;
+  Connection c(pair.daemon, listener);
+  c.out = pattern(64 * 1024);
+  ::close(pair.client);
+  pair.client = -1;
+  EXPECT_FALSE(rsd::api::send_pending(c, Clock::now()));
+  EXPECT_TRUE(c.broken);
+}
