@@ -153,6 +153,19 @@ def launch_with_fds(fds, names, domain, log):
                             env=env, preexec_fn=child, pass_fds=(3, 4), stdout=log, stderr=subprocess.STDOUT)
 
 
+def unit_sockets(tmp_path, backlog):
+    """What a socket unit holds: a listening Unix socket and TCP port, kept across
+    the daemon's restarts. (path, unix socket, tcp socket, port)."""
+    path = str(tmp_path / "unit.sock")
+    unix = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    unix.bind(path)
+    unix.listen(backlog)
+    tcp = socket.socket()
+    tcp.bind(("127.0.0.1", 0))
+    tcp.listen(backlog)
+    return path, unix, tcp, tcp.getsockname()[1]
+
+
 def http_over(sock, path):
     sock.sendall(f"GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n".encode())
     sock.settimeout(20)
@@ -168,14 +181,7 @@ def test_sockets_outlive_the_daemon_and_queue_clients_across_a_restart(tmp_path,
     """What a socket unit does on `systemctl restart`: systemd keeps the listening
     sockets; a client arriving between two daemons waits and is served by the next."""
     domain = domains.take(60, 79)
-    path = str(tmp_path / "unit.sock")
-    unix = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    unix.bind(path)
-    unix.listen(64)
-    tcp = socket.socket()
-    tcp.bind(("127.0.0.1", 0))
-    tcp.listen(64)
-    port = tcp.getsockname()[1]
+    path, unix, tcp, port = unit_sockets(tmp_path, 64)
     with open(tmp_path / "daemon.log", "wb") as log:
         first = launch_with_fds([unix.fileno(), tcp.fileno()], ["unix", "http"], domain, log)
         assert curl(f"http://127.0.0.1:{port}/healthz")
@@ -221,14 +227,7 @@ def test_restarts_under_load_fail_no_request(tmp_path, domains):
     accepted in the stopping daemon's last moments, closed unanswered)."""
     import threading
     domain = domains.take(60, 79)
-    path = str(tmp_path / "unit.sock")
-    unix = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    unix.bind(path)
-    unix.listen(512)
-    tcp = socket.socket()
-    tcp.bind(("127.0.0.1", 0))
-    tcp.listen(512)
-    port = tcp.getsockname()[1]
+    path, unix, tcp, port = unit_sockets(tmp_path, 512)
 
     def over_unix():
         s = socket.socket(socket.AF_UNIX)
