@@ -32,6 +32,22 @@ void ServerLoop::start(std::vector<LoopListener> listeners) {
     }
   }
   impl_->pool = std::make_unique<httplib::ThreadPool>(static_cast<std::size_t>(std::max(1, o.blocking_threads)));
+  try {
+    make_reactors();
+  } catch (...) {
+    // Not started: the pool's threads would otherwise outlive it (the daemon hung
+    // on its way out after a listener epoll refused).
+    impl_->reactors.clear();
+    impl_->pool->shutdown();
+    impl_->pool.reset();
+    throw;
+  }
+  for (auto& r : impl_->reactors) r->thread = std::thread([raw = r.get()] { raw->run(); });
+  impl_->started = true;
+}
+
+void ServerLoop::make_reactors() {
+  const auto& o = impl_->options;
   for (int i = 0; i < o.threads; ++i) {
     auto r = std::make_unique<Reactor>(*impl_);
     r->epfd = epoll_create1(EPOLL_CLOEXEC);
@@ -53,8 +69,6 @@ void ServerLoop::start(std::vector<LoopListener> listeners) {
     }
     impl_->reactors.push_back(std::move(r));
   }
-  for (auto& r : impl_->reactors) r->thread = std::thread([raw = r.get()] { raw->run(); });
-  impl_->started = true;
 }
 
 void ServerLoop::notify_change() {

@@ -136,6 +136,8 @@ class ServerLoop {
   ServerLoop(const ServerLoop&) = delete;
   ServerLoop& operator=(const ServerLoop&) = delete;
 
+  // Throws (a listener the kernel will not watch, no epoll) and is then not
+  // started: nothing is left running.
   void start(std::vector<LoopListener> listeners);
   // From any thread: the table changed; streams poll their feeds.
   void notify_change();
@@ -149,6 +151,8 @@ class ServerLoop {
   struct Impl;  // opaque; public so the loop's own file can name it
 
  private:
+  void make_reactors();  // one per thread, watching every listener; throws
+
   std::unique_ptr<Impl> impl_;
 };
 

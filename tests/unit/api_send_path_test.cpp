@@ -1,7 +1,8 @@
 // The API's send path, driven over socketpairs with a small send buffer so that
 // every call stops part way, as a slow client makes it: SharedBody's sealed memfd,
 // and send_pending through the splice pipe (Unix socket) and sendfile (TCP) alike.
-// Until the server loop was split these were reached only through the daemon.
+// Until the server loop was split these were reached only through the daemon; and
+// a ServerLoop whose start fails.
 #include "api/connection.hpp"
 
 #include <gtest/gtest.h>
@@ -113,4 +114,23 @@ TEST(SendPending, AClientGoneMarksTheConnectionBroken) {
   pair.client = -1;
   EXPECT_FALSE(rsd::api::send_pending(c, Clock::now()));
   EXPECT_TRUE(c.broken);
+}
+
+TEST(ServerLoop, AStartThatFailsLeavesNothingRunning) {
+  // A listener epoll will not watch (a regular file, as a wrong fd from a service
+  // manager would be): start throws, and the loop goes away at once instead of
+  // leaving the blocking pool's threads behind (the daemon hung on its way out).
+  char path[] = "/tmp/rsd-loop-test-XXXXXX";
+  const int fd = ::mkstemp(path);
+  ASSERT_GE(fd, 0);
+  ::unlink(path);
+  {
+    rsd::api::ServerLoop loop(rsd::api::LoopOptions{});
+    LoopListener bad;
+    bad.fd = fd;
+    bad.name = "a regular file";
+    EXPECT_THROW(loop.start({bad}), std::runtime_error);
+    loop.stop(std::chrono::milliseconds(0));  // idempotent on a loop never started
+  }
+  ::close(fd);
 }
