@@ -4,7 +4,8 @@ Unix socket and TCP port, so suites run in parallel and never see each other.
 - free_domain: a DDS domain id held (by an flock) for the test's lifetime.
 - daemon: factory starting the real rs-discoveryd binary ($RSD_DAEMON).
 - realdds_server: factory starting tests/tools/realdds_server.py (real realdds).
-- wait_for(): polls a condition until a deadline; never a bare sleep.
+- wait_for(): polls a condition until a deadline; never a bare sleep. The one wait
+  helper of the Python tests (api_util and client/python/tests use this one too).
 """
 import fcntl
 import http.client

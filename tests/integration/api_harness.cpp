@@ -1,15 +1,23 @@
 // The real ApiServer over a table the test drives through stdin, with no DDS.
 // It reaches what the daemon cannot be made to do on cue: a change log that
-// overflows (resync), dozens of devices, devices with odd fields, the stream limit.
+// overflows (resync), dozens of devices, devices with odd fields, the stream limit,
+// a first discovery that never ends, streams dropped while the table lives on. The
+// client library's unit tests (tests/client) run against it too.
 //
 //   api_harness --routes   (prints the route table, "METHOD PATTERN [blocking]" a line)
 //   api_harness [--socket PATH] [--http HOST:PORT] [--keepalive-ms N]
 //               [--max-streams N] [--log-capacity N] [--first-generation N]
 //               [--max-connections N] [--client-timeout-ms N] [--idle-timeout-ms N]
 //               [--stream-buffer-limit BYTES] [--allowed-host NAME]...
+//               [--domains [DomainStatus json...]]
 // stdout: "ready http_port=N" once serving; stdin lines:
 //   upsert ID {json}   remove ID   domains [DomainStatus json...]   stop
-// (a domain's "complete" is true unless the line says otherwise)
+//   api-stop   api-start
+// (a domain's "complete" is true unless the line says otherwise; --domains sets them
+// before the first request, as a daemon starts with its first discovery running).
+// api-stop stops the ApiServer (every stream ends, the socket goes) while the table
+// lives on; api-start serves it again, on the same socket and port, from a new
+// ApiServer: clients see their streams dropped and can resume from the change log.
 // Each command is acknowledged with "ok <generation>".
 #include "api/api_server.hpp"
 #include "api/routes.hpp"
@@ -20,6 +28,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <iostream>
+#include <memory>
 #include <mutex>
 #include <string>
 
@@ -47,6 +56,22 @@ class HarnessStatus final : public rsd::StatusSource {
   std::vector<rsd::DomainStatus> domains_;
 };
 
+// `text`: a JSON array of DomainStatus documents; unknown states throw.
+std::vector<rsd::DomainStatus> parse_domains(const std::string& text) {
+  std::vector<rsd::DomainStatus> out;
+  for (const auto& d : nlohmann::json::parse(text)) {
+    rsd::DomainStatus s;
+    s.domain = d.value("domain", 0);
+    s.state = rsd::parse_domain_state(d.value("state", "running")).value();
+    s.participant_guid = d.value("participant-guid", "");
+    s.accepted = d.value("accepted", 0u);
+    s.rejected = d.value("rejected", std::map<std::string, std::uint64_t>{});
+    s.complete = d.value("complete", true);
+    out.push_back(s);
+  }
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -58,6 +83,7 @@ int main(int argc, char** argv) {
   rsd::api::ApiOptions options;
   std::size_t log_capacity = 4096;
   std::uint64_t first_generation = 0;
+  HarnessStatus sources;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string flag = argv[i], value = argv[i + 1];
     if (flag == "--socket") {
@@ -84,6 +110,8 @@ int main(int argc, char** argv) {
       log_capacity = std::stoul(value);
     } else if (flag == "--first-generation") {
       first_generation = std::stoull(value);
+    } else if (flag == "--domains") {
+      sources.set_domains(parse_domains(value));
     } else {
       std::cerr << "unknown flag " << flag << "\n";
       return 2;
@@ -92,15 +120,16 @@ int main(int argc, char** argv) {
   rsd::log::set_level(rsd::log::Level::debug);
 
   rsd::SharedTable table(log_capacity, first_generation);
-  HarnessStatus sources;
-  rsd::api::ApiServer server(table, sources, "0.0.0-harness");
+  auto server = std::make_unique<rsd::api::ApiServer>(table, sources, "0.0.0-harness");
   try {
-    server.start(options);
+    server->start(options);
   } catch (const std::exception& e) {
     std::cout << "error " << e.what() << std::endl;
     return 1;
   }
-  std::cout << "ready http_port=" << server.http_port() << std::endl;
+  // A restarted ApiServer binds the port this one got, where clients look for it.
+  if (!options.http_host.empty()) options.http_port = server->http_port();
+  std::cout << "ready http_port=" << server->http_port() << std::endl;
 
   std::string line;
   while (std::getline(std::cin, line)) {
@@ -113,18 +142,16 @@ int main(int argc, char** argv) {
       } else if (cmd == "remove") {
         table.remove(rest);
       } else if (cmd == "domains") {
-        std::vector<rsd::DomainStatus> next;
-        for (const auto& d : nlohmann::json::parse(rest)) {
-          rsd::DomainStatus s;
-          s.domain = d.value("domain", 0);
-          s.state = rsd::parse_domain_state(d.value("state", "running")).value();  // unknown: an error line
-          s.participant_guid = d.value("participant-guid", "");
-          s.accepted = d.value("accepted", 0u);
-          s.rejected = d.value("rejected", std::map<std::string, std::uint64_t>{});
-          s.complete = d.value("complete", true);
-          next.push_back(s);
+        sources.set_domains(parse_domains(rest));  // an unknown state: an error line
+      } else if (cmd == "api-stop") {
+        if (server) server->stop();
+        server.reset();
+      } else if (cmd == "api-start") {
+        if (!server) {
+          auto next = std::make_unique<rsd::api::ApiServer>(table, sources, "0.0.0-harness");
+          next->start(options);  // throws: an error line, and still stopped
+          server = std::move(next);
         }
-        sources.set_domains(std::move(next));
       } else if (cmd == "stop") {
         break;
       }
@@ -134,7 +161,7 @@ int main(int argc, char** argv) {
     }
   }
   const auto t0 = std::chrono::steady_clock::now();
-  server.stop();
+  if (server) server->stop();
   const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - t0);
   std::cout << "stopped ms=" << ms.count() << std::endl;
   return 0;

@@ -156,18 +156,6 @@ def _now():
     return time.monotonic()
 
 
-def wait_for(predicate, timeout=10.0, interval=0.02, what="condition"):
-    """predicate()'s first truthy value; AssertionError at the deadline."""
-    deadline = _now() + timeout
-    last = None
-    while _now() < deadline:
-        last = predicate()
-        if last:
-            return last
-        time.sleep(interval)
-    raise AssertionError(f"timed out after {timeout}s waiting for {what} (last: {last!r})")
-
-
 _SAMPLE = re.compile(r'^([a-zA-Z_:][a-zA-Z0-9_:]*)(?:\{(.*)\})? (\S+)$')
 _LABEL = re.compile(r'([a-zA-Z_][a-zA-Z0-9_]*)="((?:[^"\\]|\\.)*)"(?:,|$)')
 

@@ -10,8 +10,8 @@ import time
 
 import pytest
 
-from api_util import SSEStream, get_json, metric, parse_metrics, raw, request, wait_for
-from conftest import SANITIZED, rss_kb
+from api_util import SSEStream, get_json, metric, parse_metrics, raw, request
+from conftest import SANITIZED, rss_kb, wait_for
 from test_api_harness import dev, harness  # noqa: F401  (the fixture)
 
 

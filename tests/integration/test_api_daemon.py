@@ -9,9 +9,8 @@ import socket
 import subprocess
 import time
 
-from api_util import (SSEStream, curl, get_json, metric, parse_metrics, request, spec, validate_response,
-                      wait_for)
-from conftest import DAEMON, device_info
+from api_util import SSEStream, curl, get_json, metric, parse_metrics, request, spec, validate_response
+from conftest import DAEMON, device_info, wait_for
 
 
 def test_openapi_spec_is_valid():

@@ -11,8 +11,8 @@ import time
 
 import pytest
 
-from api_util import (SSEStream, curl, get_json, metric, parse_metrics, raw, request, validate_response,
-                      wait_for)
+from api_util import SSEStream, curl, get_json, metric, parse_metrics, raw, request, validate_response
+from conftest import wait_for
 
 HARNESS = os.environ.get("RSD_API_HARNESS") or os.path.join(
     os.environ.get("RSD_BUILD_DIR", ""), "tests", "integration", "api_harness")

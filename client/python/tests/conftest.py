@@ -1,12 +1,12 @@
 """Fixtures of the package's own tests: a real rs-discoveryd ($RSD_DAEMON) on its own
 domain, socket and port, and real realdds servers (tests/tools/realdds_server.py, run
 with $RSD_SERVER_PYTHON, a Python that has pyrealsense2)."""
+import importlib.util
 import json
 import os
 import socket
 import subprocess
 import sys
-import time
 import urllib.request
 
 import pytest
@@ -17,14 +17,27 @@ SERVER_TOOL = os.path.join(os.environ.get("RSD_SOURCE_DIR", ""), "tests", "tools
 DOMAIN = int(os.environ.get("RSD_TEST_DOMAIN", "199"))
 
 
-def wait_until(pred, timeout=20.0, what="condition"):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = pred()
-        if value:
-            return value
-        time.sleep(0.02)
-    pytest.fail(f"timed out after {timeout}s waiting for {what}")
+_tree_conftest = None
+
+
+def wait_for(predicate, timeout=20.0, **kwargs):
+    """The tree's one wait helper (tests/conftest.py's wait_for), with a longer default:
+    here a daemon and a realdds server start in a fresh venv. These tests run from the tree
+    (tests/client/test_python_package.py) and start its realdds server, so the helper is
+    there whenever a test waits; it is loaded on first use, under a name of its own (this
+    file is `conftest` too), so that test_open.py, which needs no daemon, runs without it."""
+    global _tree_conftest
+    if _tree_conftest is None:
+        here = os.path.dirname(os.path.abspath(__file__))
+        candidates = [os.path.join(os.environ.get("RSD_SOURCE_DIR", ""), "tests", "conftest.py"),
+                      os.path.join(here, "..", "..", "..", "tests", "conftest.py")]
+        path = next((c for c in candidates if os.path.isfile(c)), None)
+        if path is None:
+            pytest.fail("these tests need the rs-discoveryd tree (set RSD_SOURCE_DIR)")
+        spec = importlib.util.spec_from_file_location("rsd_tree_conftest", path)
+        _tree_conftest = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(_tree_conftest)
+    return _tree_conftest.wait_for(predicate, timeout=timeout, **kwargs)
 
 
 def free_port():
@@ -49,7 +62,7 @@ class Daemon:
             except OSError:
                 return False
 
-        wait_until(up, what="the daemon")
+        wait_for(up, what="the daemon")
 
     def stop(self):
         self.proc.terminate()

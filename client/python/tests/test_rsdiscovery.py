@@ -4,7 +4,7 @@ import os
 import time
 
 import pytest
-from conftest import DOMAIN, info, wait_until
+from conftest import DOMAIN, info, wait_for
 
 import rsdiscovery
 
@@ -52,7 +52,7 @@ def test_watch_resumes_across_a_daemon_restart(daemon_factory, server_factory):
     d = daemon_factory()
     ep = "unix:" + d.socket
     srv = server_factory([info(11)])
-    wait_until(lambda: rsdiscovery.list_devices(endpoint=ep), what="first device")
+    wait_for(lambda: rsdiscovery.list_devices(endpoint=ep), what="first device")
     client = rsdiscovery.Client(ep)
     view = {}
     seen = []
@@ -77,8 +77,8 @@ def test_watch_resumes_across_a_daemon_restart(daemon_factory, server_factory):
         srv.command(cmd="add", info=info(13))
         d2 = daemon_factory()
         want = sorted(f"dds-{DOMAIN}-realsense.D455_98765432{n}" for n in (12, 13))
-        wait_until(lambda: sorted(x.id for x in rsdiscovery.list_devices(endpoint=ep)) == want,
-                   what="the restarted daemon's view")
+        wait_for(lambda: sorted(x.id for x in rsdiscovery.list_devices(endpoint=ep)) == want,
+                 what="the restarted daemon's view")
 
         def caught_up():
             e = w.next(0.2)
@@ -86,7 +86,7 @@ def test_watch_resumes_across_a_daemon_restart(daemon_factory, server_factory):
                 fold(e)
             return sorted(view) == want
 
-        wait_until(caught_up, what="the watch's view to match")
+        wait_for(caught_up, what="the watch's view to match")
         assert any(e.type == "removed" and e.device.serial == "9876543211" for e in seen)
         assert w.last_event_id and w.last_event_id > seen[1].id
         d2.stop()
