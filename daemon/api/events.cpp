@@ -40,8 +40,17 @@ class TableFeed final : public EventFeed {
       for (const auto& e : got.events) {
         cursor = e.generation;
         // A filter reads the entry's typed fields; every stream sends the logged bytes.
-        if (!filter.empty() && !filter.matches(e.entry->device)) continue;
-        out += sse_message(to_string(e.type), e.generation, e.entry->text);
+        // A change that takes a device out of the filter (a renumbered server no
+        // longer at ?address=) is its removal for this client, one that brings it in
+        // its arrival: else a filtered watcher kept a device it would never list.
+        EventType type = e.type;
+        if (!filter.empty()) {
+          const bool after = filter.matches(e.entry->device);
+          const bool before = e.type == EventType::changed && e.previous ? filter.matches(e.previous->device) : after;
+          if (!before && !after) continue;
+          if (before != after) type = after ? EventType::added : EventType::removed;
+        }
+        out += sse_message(to_string(type), e.generation, e.entry->text);
         ++n;
       }
       sent_ += n;

@@ -1,6 +1,7 @@
 #include "table/device_table.hpp"
 
 #include <algorithm>
+#include <utility>
 #include <iterator>
 #include <limits>
 
@@ -167,8 +168,8 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
       continue;
     }
     const bool changed = !same_but_timestamps(model::to_json(it->second->device), doc);
-    it->second = make_entry(doc);
-    if (changed) events.push_back(record(EventType::changed, it->second));
+    EntryPtr before = std::exchange(it->second, make_entry(doc));
+    if (changed) events.push_back(record(EventType::changed, it->second, std::move(before)));
   }
   return events;
 }
@@ -288,8 +289,8 @@ std::optional<DeviceEvent> DeviceTable::note_described(const std::string& id) {
   return record(EventType::described, std::move(entry));
 }
 
-DeviceEvent DeviceTable::record(EventType type, EntryPtr entry) {
-  DeviceEvent event{++generation_, type, entry->device.id, std::move(entry)};
+DeviceEvent DeviceTable::record(EventType type, EntryPtr entry, EntryPtr previous) {
+  DeviceEvent event{++generation_, type, entry->device.id, std::move(entry), std::move(previous)};
   log_.push_back(event);
   log_bytes_ += event.entry->text.size();
   // The newest event always stays, whatever its size: a resume from just before it works.

@@ -44,6 +44,9 @@ struct DeviceEvent {
   // object took 3 KB (measured), as text about 500 bytes, and the log's byte bound
   // counts the text.
   EntryPtr entry;
+  // changed: the entry before the change, so that a filtered reader can tell a
+  // device leaving its filter (removed, for it) or entering it (added).
+  EntryPtr previous;
   nlohmann::json device() const;  // parsed again: for tests
 };
 
@@ -126,7 +129,7 @@ class DeviceTable {
   EventsSince events_since(std::uint64_t generation) const;
 
  private:
-  DeviceEvent record(EventType type, EntryPtr entry);
+  DeviceEvent record(EventType type, EntryPtr entry, EntryPtr previous = nullptr);
 
   using Layout = std::map<std::string, std::vector<std::string>>;  // entry id -> sightings, primary first
   void index(const std::string& id, const nlohmann::json& sighting, bool add);

@@ -390,6 +390,28 @@ def test_events_filtered(harness):
     s.close()
 
 
+def test_a_filtered_stream_sees_devices_leave_and_enter_its_filter(harness):
+    # A watcher of one camera network (?address=): its server renumbered, the camera
+    # is no longer on that network, and for this watcher it is gone (it would not
+    # list it either); moved back, it is there again.
+    h = harness(http=False)
+    s = SSEStream(h.socket, "/v1/events?address=192.0.2.7")
+    s.next_event()  # hello
+    device_id, doc = dev(1, domain=5)
+    h.upsert(device_id, doc)
+    assert s.next_event()["event"] == "added"
+    moved = dict(doc, server=dict(doc["server"], addresses=["198.51.100.7"]))
+    g = h.upsert(device_id, moved)
+    e = s.next_event()
+    assert (e["event"], e["json"]["id"], int(e["id"])) == ("removed", device_id, g)
+    h.upsert(device_id, dict(moved, name="Intel RealSense D455 (renamed)"))  # outside the filter: nothing
+    g = h.upsert(device_id, doc)
+    e = s.next_event()
+    assert (e["event"], int(e["id"])) == ("added", g), e
+    assert request(h.socket, "/v1/devices?address=192.0.2.7")[0] == 200
+    s.close()
+
+
 def test_keepalive_comments(harness):
     h = harness("--keepalive-ms", "200", http=False)
     s = SSEStream(h.socket)
