@@ -181,8 +181,9 @@ Config file keys: domains, socket, http, usb, participant-name, log-level,
 cyclonedds-config, max-devices-per-participant, max-devices-per-domain,
 max-writers-per-participant, max-writers-per-domain, interfaces and
 exclude-interfaces (lists), describe-timeout, describe-eagerly (true, false or a list of domains), allowed-hosts
-(a list), max-clients; otherwise the same meanings as the flags. The HTTP and socket
-settings (http, socket, allowed-hosts, max-clients) take effect at start, not on SIGHUP.
+(a list), max-clients; otherwise the same meanings as the flags. SIGHUP applies
+domains, usb, log-level, interfaces and exclude-interfaces; the other keys take
+effect on restart.
 
 API: GET /v1/devices, /v1/devices/{id}, /v1/devices/{id}/description,
 /v1/events (Server-Sent Events),
