@@ -1,10 +1,14 @@
+// Flags and the JSON config file, each read through the one key table
+// (config_keys.hpp) and merged into one Config: defaults, the file, then flags.
 #include "config/config.hpp"
+
+#include "config/config_keys.hpp"
 
 #include "rsd_model/socket_path.hpp"
 
 #include <nlohmann/json.hpp>
 
-#include <charconv>
+#include <algorithm>
 #include <cstring>
 #include <cstdlib>
 #include <fstream>
@@ -15,97 +19,12 @@
 namespace rsd {
 namespace {
 
-int parse_domain(const std::string& text, const std::string& where) {
-  int value = -1;
-  const auto* end = text.data() + text.size();
-  auto [ptr, ec] = std::from_chars(text.data(), end, value);
-  if (text.empty() || ec != std::errc() || ptr != end || value < 0 || value > kMaxDomain)
-    throw ConfigError(where + ": DDS domain must be a whole number from 0 to " +
-                      std::to_string(kMaxDomain) + ", not '" + text + "'");
-  return value;
-}
-
-// "HOST:PORT", "[v6]:PORT" or "off".
-void parse_http(const std::string& text, Config& config, const std::string& where) {
-  config.http_set = true;
-  if (text == "off") {
-    config.http_host.clear();
-    return;
-  }
-  const auto colon = text.rfind(':');
-  std::string host = colon == std::string::npos ? "" : text.substr(0, colon);
-  const std::string port = colon == std::string::npos ? "" : text.substr(colon + 1);
-  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
-  int value = 0;
-  auto [ptr, ec] = std::from_chars(port.data(), port.data() + port.size(), value);
-  if (host.empty() || port.empty() || ec != std::errc() || ptr != port.data() + port.size() ||
-      value < 1 || value > 65535)
-    throw ConfigError(where + ": expected HOST:PORT (for example 127.0.0.1:" +
-                      std::to_string(kDefaultHttpPort) + ") or 'off', not '" + text + "'");
-  config.http_host = host;
-  config.http_port = value;
-}
-
-// A Host name (or address) the HTTP listener answers for; "*" for any.
-std::string parse_allowed_host(const std::string& text, const std::string& where) {
-  const bool bad = text.empty() || text.size() > 253 ||
-                   text.find_first_of(" \t\r\n/?#@") != std::string::npos;
-  if (bad)
-    throw ConfigError(where + ": expected a host name or address as a browser sends it in Host (or '*'), not '" +
-                      text + "'");
-  return text;
-}
-
-// A network interface name or shell pattern. Linux names are 1-15 characters
-// without '/' or whitespace; a pattern may be longer ("enp*s0*"), not unbounded.
-std::string parse_interface_pattern(const std::string& text, const std::string& where) {
-  const bool bad = text.empty() || text.size() > 64 || text.find_first_of(" \t\r\n/\"'<>&") != std::string::npos;
-  if (bad)
-    throw ConfigError(where + ": expected a network interface name or pattern (eth1, enp*), not '" + text + "'");
-  return text;
-}
-
-void parse_socket(const std::string& text, Config& config, const std::string& where) {
-  if (text.empty()) throw ConfigError(where + ": socket path is empty (use 'off' to disable)");
-  config.socket_path = text == "off" ? "" : text;
-}
-
-void check_log_level(const std::string& level, const std::string& where) {
-  static const std::set<std::string> kLevels{"error", "warning", "notice", "info", "debug"};
-  if (!kLevels.count(level))
-    throw ConfigError(where + ": log level must be one of error, warning, notice, info, debug; not '" +
-                      level + "'");
-}
-
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ConfigError("cannot read config file " + path + ": " + std::strerror(errno));
   std::ostringstream text;
   text << in.rdbuf();
   return text.str();
-}
-
-// A timeout in whole seconds, 1 to 300.
-int parse_seconds(const std::string& text, const std::string& where) {
-  int n = 0;
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), n);
-  if (ec != std::errc() || end != text.data() + text.size() || n < 1 || n > 300)
-    throw ConfigError(where + ": must be a whole number of seconds from 1 to 300, not '" + text + "'");
-  return n;
-}
-
-// A device cap: a whole number from 1 to 1,000,000.
-std::size_t parse_limit(const std::string& text, const std::string& where) {
-  std::size_t used = 0;
-  long long n = 0;
-  try {
-    n = std::stoll(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || text.empty() || n < 1 || n > 1000000)
-    throw ConfigError(where + ": must be a whole number from 1 to 1000000, not '" + text + "'");
-  return static_cast<std::size_t>(n);
 }
 
 }  // namespace
@@ -124,99 +43,23 @@ void apply_config_json(const std::string& text, Config& config) {
     throw ConfigError(where + ": not valid JSON: " + e.what());
   }
   if (!doc.is_object()) throw ConfigError(where + ": must be a JSON object");
-  auto want_string = [&](const std::string& key, const nlohmann::json& v) -> std::string {
-    if (!v.is_string()) throw ConfigError(where + ": \"" + key + "\" must be a string");
-    return v.get<std::string>();
-  };
   for (const auto& [key, value] : doc.items()) {
-    const std::string at = where + ": \"" + key + "\"";
-    if (key == "domains") {
-      if (!value.is_array() || value.empty())
-        throw ConfigError(at + " must be a non-empty array of domain ids");
-      std::vector<int> domains;
-      for (const auto& d : value) {
-        if (!d.is_number_integer()) throw ConfigError(at + " must hold whole numbers, not " + d.dump());
-        domains.push_back(parse_domain(std::to_string(d.get<long long>()), at));
-      }
-      config.domains = domains;
-    } else if (key == "socket") {
-      parse_socket(want_string(key, value), config, at);
-    } else if (key == "http") {
-      parse_http(want_string(key, value), config, at);
-    } else if (key == "usb") {
-      if (!value.is_boolean()) throw ConfigError(at + " must be true or false");
-      config.usb = value.get<bool>();
-    } else if (key == "participant-name") {
-      config.participant_name = want_string(key, value);
-    } else if (key == "log-level") {
-      config.log_level = want_string(key, value);
-      check_log_level(config.log_level, at);
-    } else if (key == "cyclonedds-config") {
-      config.cyclonedds_config = want_string(key, value);
-    } else if (key == "describe-eagerly") {
-      // true, false, or the domains whose devices are described as they appear
-      if (value.is_boolean()) {
-        config.describe_eagerly_all = value.get<bool>();
-        config.describe_eagerly.clear();
-      } else if (value.is_array()) {
-        config.describe_eagerly_all = false;
-        config.describe_eagerly.clear();
-        for (const auto& d : value) {
-          if (!d.is_number_integer()) throw ConfigError(at + " must be true, false or a list of domain ids");
-          config.describe_eagerly.push_back(parse_domain(std::to_string(d.get<long long>()), at));
-        }
-      } else {
-        throw ConfigError(at + " must be true, false or a list of domain ids");
-      }
-    } else if (key == "describe-timeout") {
-      config.describe_timeout_s = parse_seconds(value.is_number_integer() ? std::to_string(value.get<long long>())
-                                                                         : value.dump(), at);
-    } else if (key == "interfaces" || key == "exclude-interfaces") {
-      if (!value.is_array()) throw ConfigError(at + " must be a list of interface names or patterns");
-      auto& list = key == "interfaces" ? config.interfaces : config.exclude_interfaces;
-      list.clear();
-      for (const auto& i : value) {
-        if (!i.is_string()) throw ConfigError(at + " must hold strings, not " + i.dump());
-        list.push_back(parse_interface_pattern(i.get<std::string>(), at));
-      }
-    } else if (key == "allowed-hosts") {
-      if (!value.is_array()) throw ConfigError(at + " must be a list of host names");
-      config.allowed_hosts.clear();
-      for (const auto& h : value) {
-        if (!h.is_string()) throw ConfigError(at + " must hold strings, not " + h.dump());
-        config.allowed_hosts.push_back(parse_allowed_host(h.get<std::string>(), at));
-      }
-    } else if (key == "max-clients") {
-      config.max_clients = parse_limit(value.is_number_integer() ? std::to_string(value.get<long long>())
-                                                                 : value.dump(), at);
-    } else if (key == "max-devices-per-participant" || key == "max-devices-per-domain") {
-      const std::size_t n = parse_limit(value.is_number_integer() ? std::to_string(value.get<long long>())
-                                                                 : value.dump(), at);
-      (key == "max-devices-per-domain" ? config.max_devices_per_domain : config.max_devices_per_participant) = n;
-    } else if (key == "max-writers-per-participant" || key == "max-writers-per-domain") {
-      const std::size_t n = parse_limit(value.is_number_integer() ? std::to_string(value.get<long long>())
-                                                                 : value.dump(), at);
-      (key == "max-writers-per-domain" ? config.max_writers_per_domain : config.max_writers_per_participant) = n;
-    } else {
-      throw ConfigError(where + ": unknown key \"" + key +
-                        "\" (known: domains, socket, http, usb, participant-name, log-level, "
-                        "cyclonedds-config, max-devices-per-participant, max-devices-per-domain, max-writers-per-participant, "
-                        "max-writers-per-domain, interfaces, exclude-interfaces, describe-timeout, describe-eagerly, "
-                        "allowed-hosts, max-clients)");
+    const ConfigKey* k = find_file_key(key);
+    if (!k) {
+      std::string known;
+      for (const auto& each : config_keys()) known += (known.empty() ? "" : ", ") + std::string(each.file);
+      throw ConfigError(where + ": unknown key \"" + key + "\" (known: " + known + ")");
     }
+    k->from_file(value, config, where + ": \"" + key + "\"");
   }
 }
 
 CommandLine parse_command_line(int argc, const char* const* argv) {
   CommandLine cl;
   Config flags_only;  // collects what the flags set, to apply over the file
-  bool set_domains = false, set_socket = false, set_http = false, set_usb = false, set_name = false,
-       set_level = false, set_cyclone = false, set_per_participant = false, set_per_domain = false,
-       set_writers_participant = false, set_writers_domain = false, set_interfaces = false, set_excluded = false,
-       set_describe = false, set_eager = false, set_hosts = false, set_clients = false;
+  std::vector<const ConfigKey*> set;  // the keys flags set, each once
   std::string config_file;
   bool explicit_config = false;
-  std::vector<int> domains;
 
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
@@ -250,63 +93,10 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
         config_file = next();
         explicit_config = true;
       }
-    } else if (arg == "-d" || arg == "--domain") {
-      domains.push_back(parse_domain(next(), "--domain"));
-      set_domains = true;
-    } else if (arg == "--socket") {
-      parse_socket(next(), flags_only, "--socket");
-      set_socket = true;
-    } else if (arg == "--http") {
-      parse_http(next(), flags_only, "--http");
-      set_http = true;
-    } else if (arg == "--no-usb") {
-      flags_only.usb = false;
-      set_usb = true;
-    } else if (arg == "--participant-name") {
-      flags_only.participant_name = next();
-      set_name = true;
-    } else if (arg == "--log-level") {
-      flags_only.log_level = next();
-      check_log_level(flags_only.log_level, "--log-level");
-      set_level = true;
-    } else if (arg == "--cyclonedds-config") {
-      flags_only.cyclonedds_config = next();
-      set_cyclone = true;
-    } else if (arg == "--max-devices-per-participant") {
-      flags_only.max_devices_per_participant = parse_limit(next(), arg);
-      set_per_participant = true;
-    } else if (arg == "--describe-eagerly") {
-      const std::string v = next();
-      if (v == "all") flags_only.describe_eagerly_all = true;
-      else flags_only.describe_eagerly.push_back(parse_domain(v, arg));
-      set_eager = true;
-    } else if (arg == "--describe-timeout") {
-      flags_only.describe_timeout_s = parse_seconds(next(), arg);
-      set_describe = true;
-    } else if (arg == "--allowed-host") {
-      flags_only.allowed_hosts.push_back(parse_allowed_host(next(), arg));
-      set_hosts = true;
-    } else if (arg == "--max-clients") {
-      flags_only.max_clients = parse_limit(next(), arg);
-      set_clients = true;
-    } else if (arg == "--max-devices-per-domain") {
-      flags_only.max_devices_per_domain = parse_limit(next(), arg);
-      set_per_domain = true;
-    } else if (arg == "--interface") {
-      if (!set_interfaces) flags_only.interfaces.clear();
-      flags_only.interfaces.push_back(parse_interface_pattern(next(), arg));
-      set_interfaces = true;
-    } else if (arg == "--exclude-interface") {
-      if (!set_excluded) flags_only.exclude_interfaces.clear();
-      const std::string v = next();
-      if (v != "none") flags_only.exclude_interfaces.push_back(parse_interface_pattern(v, arg));
-      set_excluded = true;
-    } else if (arg == "--max-writers-per-participant") {
-      flags_only.max_writers_per_participant = parse_limit(next(), arg);
-      set_writers_participant = true;
-    } else if (arg == "--max-writers-per-domain") {
-      flags_only.max_writers_per_domain = parse_limit(next(), arg);
-      set_writers_domain = true;
+    } else if (const ConfigKey* k = find_flag(arg)) {
+      const bool first = std::find(set.begin(), set.end(), k) == set.end();
+      k->from_flag(k->takes_value ? next() : std::string(), flags_only, first, std::string("--") + k->flag);
+      if (first) set.push_back(k);
     } else {
       throw ConfigError("unknown argument '" + arg + "' (see --help)");
     }
@@ -319,30 +109,7 @@ CommandLine parse_command_line(int argc, const char* const* argv) {
     config.config_file = config_file;
     apply_config_json(read_file(config_file), config);
   }
-  if (set_domains) config.domains = domains;
-  if (set_socket) config.socket_path = flags_only.socket_path;
-  if (set_http) {
-    config.http_host = flags_only.http_host;
-    config.http_port = flags_only.http_port;
-    config.http_set = true;
-  }
-  if (set_usb) config.usb = flags_only.usb;
-  if (set_name) config.participant_name = flags_only.participant_name;
-  if (set_level) config.log_level = flags_only.log_level;
-  if (set_cyclone) config.cyclonedds_config = flags_only.cyclonedds_config;
-  if (set_per_participant) config.max_devices_per_participant = flags_only.max_devices_per_participant;
-  if (set_per_domain) config.max_devices_per_domain = flags_only.max_devices_per_domain;
-  if (set_interfaces) config.interfaces = flags_only.interfaces;
-  if (set_excluded) config.exclude_interfaces = flags_only.exclude_interfaces;
-  if (set_writers_participant) config.max_writers_per_participant = flags_only.max_writers_per_participant;
-  if (set_writers_domain) config.max_writers_per_domain = flags_only.max_writers_per_domain;
-  if (set_describe) config.describe_timeout_s = flags_only.describe_timeout_s;
-  if (set_hosts) config.allowed_hosts = flags_only.allowed_hosts;
-  if (set_clients) config.max_clients = flags_only.max_clients;
-  if (set_eager) {
-    config.describe_eagerly_all = flags_only.describe_eagerly_all;
-    config.describe_eagerly = flags_only.describe_eagerly;
-  }
+  for (const ConfigKey* k : set) k->copy(flags_only, config);
 
   // The same domain twice would be two participants fighting over one table slot.
   std::set<int> unique(config.domains.begin(), config.domains.end());
@@ -414,8 +181,9 @@ Config file keys: domains, socket, http, usb, participant-name, log-level,
 cyclonedds-config, max-devices-per-participant, max-devices-per-domain,
 max-writers-per-participant, max-writers-per-domain, interfaces and
 exclude-interfaces (lists), describe-timeout, describe-eagerly (true, false or a list of domains), allowed-hosts
-(a list), max-clients; otherwise the same meanings as the flags. The HTTP and socket
-settings (http, socket, allowed-hosts, max-clients) take effect at start, not on SIGHUP.
+(a list), max-clients; otherwise the same meanings as the flags. SIGHUP applies
+domains, usb, log-level, interfaces and exclude-interfaces; the other keys take
+effect on restart.
 
 API: GET /v1/devices, /v1/devices/{id}, /v1/devices/{id}/description,
 /v1/events (Server-Sent Events),

@@ -1,5 +1,6 @@
 #include "service/service.hpp"
 
+#include "config/config_keys.hpp"
 #include "log/log.hpp"
 
 #include <algorithm>
@@ -142,22 +143,9 @@ void Service::reload() {
   config_.domains = domains_.ids();
   config_.config_file = next.config_file;
 
-  std::vector<std::string> restart_only;
-  if (next.socket_path != config_.socket_path) restart_only.push_back("socket");
-  if (next.http_host != config_.http_host || next.http_port != config_.http_port) restart_only.push_back("http");
-  if (next.allowed_hosts != config_.allowed_hosts) restart_only.push_back("allowed-hosts");
-  if (next.max_clients != config_.max_clients) restart_only.push_back("max-clients");
-  if (next.participant_name != config_.participant_name) restart_only.push_back("participant-name");
-  if (next.cyclonedds_config != config_.cyclonedds_config) restart_only.push_back("cyclonedds-config");
-  if (next.max_devices_per_participant != config_.max_devices_per_participant)
-    restart_only.push_back("max-devices-per-participant");
-  if (next.max_devices_per_domain != config_.max_devices_per_domain) restart_only.push_back("max-devices-per-domain");
-  if (next.max_writers_per_participant != config_.max_writers_per_participant)
-    restart_only.push_back("max-writers-per-participant");
-  if (next.max_writers_per_domain != config_.max_writers_per_domain) restart_only.push_back("max-writers-per-domain");
-  if (next.describe_timeout_s != config_.describe_timeout_s) restart_only.push_back("describe-timeout");
-  if (next.describe_eagerly_all != config_.describe_eagerly_all || next.describe_eagerly != config_.describe_eagerly)
-    restart_only.push_back("describe-eagerly");
+  // What listeners and DDS participants were made with waits for a restart; the
+  // key table (config_keys) says which keys those are.
+  const auto restart_only = restart_only_changes(config_, next);
   if (!restart_only.empty())
     log::warning("reload: " + join(restart_only, ", ") + " changed; that takes effect on restart");
 

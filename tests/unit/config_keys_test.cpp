@@ -1,0 +1,187 @@
+// The key table (daemon/config/config_keys) against what reads it and what repeats
+// it in prose: the file and flag parsers, Service::reload's restart-only warning,
+// and --help. A key added to one and not the others fails here.
+#include "config/config.hpp"
+#include "config/config_keys.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <string>
+#include <vector>
+
+using rsd::Config;
+
+namespace {
+
+rsd::CommandLine parse(std::vector<std::string> args) {
+  args.insert(args.begin(), "rs-discoveryd");
+  std::vector<const char*> argv;
+  for (const auto& a : args) argv.push_back(a.c_str());
+  return rsd::parse_command_line(static_cast<int>(argv.size()), argv.data());
+}
+
+// Per key, a file value and flags that each set it to something other than the
+// default, and to different things from each other where the key allows it.
+struct Sample {
+  const char* json;
+  std::vector<std::string> flags;
+};
+const std::map<std::string, Sample>& samples() {
+  static const std::map<std::string, Sample> s{
+      {"domains", {"[1, 2]", {"-d", "3", "--domain=4"}}},
+      {"socket", {"\"/tmp/from-file.sock\"", {"--socket", "/tmp/from-flag.sock"}}},
+      {"http", {"\"127.0.0.1:9001\"", {"--http", "[::1]:9002"}}},
+      {"allowed-hosts", {"[\"a.example\"]", {"--allowed-host", "b.example", "--allowed-host", "c.example"}}},
+      {"max-clients", {"200", {"--max-clients", "64"}}},
+      {"usb", {"false", {"--no-usb"}}},
+      {"participant-name", {"\"from-file\"", {"--participant-name", "from-flag"}}},
+      {"interfaces", {"[\"eth1\"]", {"--interface", "enp*", "--interface", "wlan0"}}},
+      {"exclude-interfaces", {"[\"eth9\"]", {"--exclude-interface", "none"}}},
+      {"cyclonedds-config", {"\"<CycloneDDS/>\"", {"--cyclonedds-config", "file:///etc/cyclone.xml"}}},
+      {"log-level", {"\"debug\"", {"--log-level", "error"}}},
+      {"max-devices-per-participant", {"16", {"--max-devices-per-participant", "8"}}},
+      {"max-devices-per-domain", {"2048", {"--max-devices-per-domain=64"}}},
+      {"max-writers-per-participant", {"99", {"--max-writers-per-participant", "7"}}},
+      {"max-writers-per-domain", {"5000", {"--max-writers-per-domain", "6"}}},
+      {"describe-timeout", {"5", {"--describe-timeout", "9"}}},
+      {"describe-eagerly", {"[0, 5]", {"--describe-eagerly", "all"}}},
+  };
+  return s;
+}
+
+std::set<std::string> table_file_keys() {
+  std::set<std::string> keys;
+  for (const auto& k : rsd::config_keys()) keys.insert(k.file);
+  return keys;
+}
+
+// The key names in a stretch of --help prose: words, not what is in parentheses.
+std::set<std::string> names_in(std::string prose) {
+  prose = std::regex_replace(prose, std::regex(R"(\([^)]*\))"), " ");
+  std::set<std::string> names;
+  const std::regex word("[a-z][a-z-]*");
+  for (auto it = std::sregex_iterator(prose.begin(), prose.end(), word); it != std::sregex_iterator(); ++it)
+    if (it->str() != "and") names.insert(it->str());
+  return names;
+}
+
+std::string between(const std::string& text, const std::string& from, const std::string& to) {
+  const auto a = text.find(from);
+  const auto b = text.find(to, a == std::string::npos ? 0 : a);
+  if (a == std::string::npos || b == std::string::npos) return "";
+  return text.substr(a + from.size(), b - a - from.size());
+}
+
+}  // namespace
+
+TEST(ConfigKeys, EverySampleIsAKeyAndEveryKeyHasASample) {
+  std::set<std::string> sampled;
+  for (const auto& [key, _] : samples()) sampled.insert(key);
+  EXPECT_EQ(sampled, table_file_keys()) << "a new key needs a sample here";
+}
+
+TEST(ConfigKeys, RestartOnlyIsWhatReloadWarnsAbout) {
+  // What Service::reload says "takes effect on restart" for; the rest it applies live.
+  const std::vector<std::string> restart_only{
+      "socket", "http", "allowed-hosts", "max-clients", "participant-name", "cyclonedds-config",
+      "max-devices-per-participant", "max-devices-per-domain", "max-writers-per-participant",
+      "max-writers-per-domain", "describe-timeout", "describe-eagerly"};
+  const Config running;
+  Config all;
+  for (const auto& k : rsd::config_keys()) {
+    const std::string key = k.file;
+    Config next;
+    rsd::apply_config_json("{\"" + key + "\": " + samples().at(key).json + "}", next);
+    rsd::apply_config_json("{\"" + key + "\": " + samples().at(key).json + "}", all);
+    EXPECT_EQ(rsd::changed_keys(running, next), std::vector<std::string>{key}) << key;
+    const bool restart = std::count(restart_only.begin(), restart_only.end(), key) > 0;
+    EXPECT_EQ(rsd::restart_only_changes(running, next), restart ? std::vector<std::string>{key}
+                                                                : std::vector<std::string>{})
+        << key;
+    EXPECT_TRUE(rsd::restart_only_changes(next, next).empty()) << key;
+  }
+  // All at once: the warning's list, in the order it has always had.
+  EXPECT_EQ(rsd::restart_only_changes(running, all), restart_only);
+}
+
+TEST(ConfigKeys, TheFileSetsEveryKeyAndFlagsWinForEveryKey) {
+  const std::string empty = ::testing::TempDir() + "/rsd-keys-empty.json";
+  const std::string full = ::testing::TempDir() + "/rsd-keys-full.json";
+  std::ofstream(empty) << "{}";
+  std::string text;
+  std::vector<std::string> flags;
+  for (const auto& [key, sample] : samples()) {
+    text += (text.empty() ? "{" : ", ") + ("\"" + key + "\": ") + sample.json;
+    flags.insert(flags.end(), sample.flags.begin(), sample.flags.end());
+  }
+  std::ofstream(full) << text << "}";
+
+  const Config defaults = parse({"--config", empty}).config;
+  const Config from_file = parse({"--config", full}).config;
+  std::vector<std::string> every;
+  for (const auto& k : rsd::config_keys()) every.push_back(k.file);
+  EXPECT_EQ(rsd::changed_keys(defaults, from_file), every);
+
+  std::vector<std::string> over_file{"--config", full};
+  over_file.insert(over_file.end(), flags.begin(), flags.end());
+  std::vector<std::string> over_none{"--config", empty};
+  over_none.insert(over_none.end(), flags.begin(), flags.end());
+  const Config both = parse(over_file).config;
+  EXPECT_TRUE(rsd::changed_keys(both, parse(over_none).config).empty());
+  // Each flag's value, not the file's (usb: both say off).
+  EXPECT_EQ(rsd::changed_keys(both, from_file), (std::vector<std::string>{
+      "domains", "socket", "http", "allowed-hosts", "max-clients", "participant-name", "interfaces",
+      "exclude-interfaces", "cyclonedds-config", "log-level", "max-devices-per-participant",
+      "max-devices-per-domain", "max-writers-per-participant", "max-writers-per-domain", "describe-timeout",
+      "describe-eagerly"}));
+  EXPECT_EQ(both.domains, (std::vector<int>{3, 4}));
+  EXPECT_EQ(both.allowed_hosts, (std::vector<std::string>{"b.example", "c.example"}));
+  EXPECT_TRUE(both.exclude_interfaces.empty());
+}
+
+TEST(ConfigKeys, TheUnknownKeyMessageListsEveryKey) {
+  Config c;
+  try {
+    rsd::apply_config_json(R"({"domian": [1]})", c);
+    FAIL() << "no error";
+  } catch (const rsd::ConfigError& e) {
+    const std::string message = e.what();
+    EXPECT_EQ(message.rfind("config: unknown key \"domian\" (known: ", 0), 0u) << message;
+    EXPECT_EQ(names_in(between(message, "(known: ", ")")), table_file_keys()) << message;
+  }
+}
+
+TEST(ConfigKeys, HelpNamesEveryFlagAndNoOther) {
+  const std::string help = rsd::usage_text();
+  const std::string options = between(help, "Options:\n", "\nConfig file keys:");
+  ASSERT_FALSE(options.empty());
+  std::set<std::string> expected{"config", "check-config", "version", "help"};  // not keys
+  for (const auto& k : rsd::config_keys()) {
+    expected.insert(k.flag);
+    // The flag begins its own line, after its short form if it has one.
+    const std::string line = k.short_flag ? std::string("\n  -") + k.short_flag + ", --" + k.flag
+                                          : std::string("\n      --") + k.flag;
+    const auto at = options.find(line);
+    EXPECT_TRUE(at != std::string::npos && std::string(" \n").find(options[at + line.size()]) != std::string::npos)
+        << k.flag;
+  }
+  std::set<std::string> named;
+  const std::regex flag("--([a-z][a-z-]*)");
+  for (auto it = std::sregex_iterator(options.begin(), options.end(), flag); it != std::sregex_iterator(); ++it)
+    named.insert((*it)[1].str());
+  EXPECT_EQ(named, expected);
+}
+
+TEST(ConfigKeys, HelpNamesEveryFileKeyAndWhatReloadApplies) {
+  const std::string help = rsd::usage_text();
+  EXPECT_EQ(names_in(between(help, "Config file keys:", "; otherwise")), table_file_keys());
+  std::set<std::string> live;
+  for (const auto& k : rsd::config_keys())
+    if (k.reload == rsd::Reload::live) live.insert(k.file);
+  EXPECT_EQ(names_in(between(help, "SIGHUP applies", "; the other keys take")), live);
+}
