@@ -32,10 +32,9 @@ bool enabled(Level level) { return static_cast<int>(level) <= g_level.load(); }
 namespace {
 // How a line starts, chosen once from where stderr goes. The journal (systemd sets
 // JOURNAL_STREAM to stderr's device:inode) reads "<N>" as the priority and stamps
-// the time itself; a person at a terminal reads the time and the level's word.
-// Anything else (a file, a pipe to a collector) keeps the "<N>" form, which syslog-
-// style collectors take as the priority and the test suite reads.
-enum class Form { priority, terminal };
+// the time itself; everywhere else (a terminal, a file, `docker logs`' pipe) a
+// person reads the line: the local time and the level's word (issue 23).
+enum class Form { priority, readable };
 
 Form detect_form() {
   if (const char* stream = std::getenv("JOURNAL_STREAM")) {
@@ -45,7 +44,7 @@ Form detect_form() {
         static_cast<unsigned long long>(st.st_dev) == dev && static_cast<unsigned long long>(st.st_ino) == ino)
       return Form::priority;
   }
-  return isatty(STDERR_FILENO) ? Form::terminal : Form::priority;
+  return Form::readable;
 }
 
 const char* level_word(Level level) {
@@ -60,7 +59,7 @@ const char* level_word(Level level) {
 }
 
 // "2026-12-02 08:50:01.123 notice: " in local time.
-std::string terminal_prefix(Level level) {
+std::string readable_prefix(Level level) {
   timeval tv{};
   gettimeofday(&tv, nullptr);
   std::tm tm{};
@@ -75,7 +74,7 @@ std::string terminal_prefix(Level level) {
 void write(Level level, std::string_view message) {
   if (!enabled(level)) return;
   static const Form form = detect_form();
-  std::string line = form == Form::terminal ? terminal_prefix(level)
+  std::string line = form == Form::readable ? readable_prefix(level)
                                             : "<" + std::to_string(static_cast<int>(level)) + ">";
   // One line per message: a stray newline from a peer's data would forge a new
   // journal entry with a priority of the peer's choosing.

@@ -1,6 +1,7 @@
-"""The daemon's log reads well wherever it goes: on a terminal each line starts with
-the local date and time and the level's word; written to the journal (JOURNAL_STREAM
-names stderr) the "<N>" priority prefix journald reads, and nothing else."""
+"""The daemon's log reads well wherever it goes: on a terminal, in a file or through a
+pipe (`docker logs`) each line starts with the local date and time and the level's
+word; written to the journal (JOURNAL_STREAM names stderr) the "<N>" priority prefix
+journald reads, and nothing else."""
 import os
 import pty
 import re
@@ -53,3 +54,20 @@ def test_to_the_journal_the_priority_prefix(tmp_path, free_domain):
     lines = log.read_text().splitlines()
     assert any(x.startswith("<5>rs-discoveryd ") and "serving" in x for x in lines), lines
     assert all(re.match(r"<[3-7]>", x) for x in lines), lines
+
+
+def test_through_a_pipe_time_and_level_words(tmp_path, free_domain):
+    # A container engine's log driver, a `| tee`: a person reads these lines too.
+    r, w = os.pipe()
+    proc = start(tmp_path, free_domain, w)
+    os.close(w)
+    out = b""
+    while b"serving" not in out:
+        chunk = os.read(r, 65536)
+        assert chunk, out
+        out += chunk
+    stop(proc)
+    os.close(r)
+    line = next(x for x in out.decode().splitlines() if "serving" in x)
+    assert re.match(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d{3} notice: rs-discoveryd \S+ serving on unix:", line), line
+    assert not re.search(r"^<\d>", out.decode(), re.M), out

@@ -72,7 +72,7 @@ def test_invalid_config_keeps_the_running_one_and_says_why(tmp_path, domains, da
     assert "0 to 232" in ready["STATUS"]
     assert ready["STATUS"].startswith(f"1 device on DDS domain {a}")
     assert joined(d) == [a] and len(d.devices()) == 1
-    assert f"<3>reload failed, still running the previous configuration: {config}" in d.log()
+    assert f"error: reload failed, still running the previous configuration: {config}" in d.log()
 
     config.write_text("{not json")
     ready = reload(d, notify_socket)

@@ -178,7 +178,7 @@ def test_d435_hotplugged_on_usb2_is_warned_about_then_unplugged(bed, usb_daemon)
     assert "USB 2" in warning and "USB 3" in warning and "480 Mbit/s" in warning
     assert d.get_json("/v1/devices/" + D435_ID)["warnings"] == [warning]
     # Logged as a warning too; the line may follow the event by a moment.
-    wait_for(lambda: "<4>usb: " + D435_ID in d.log() and "USB 2 speed" in d.log(), 5, what="the warning logged")
+    wait_for(lambda: "warning: usb: " + D435_ID in d.log() and "USB 2 speed" in d.log(), 5, what="the warning logged")
     t0 = time.monotonic()
     bed.unplug(path)
     ev = events.expect("removed", D435_ID)
