@@ -147,6 +147,21 @@ void number_from_file(const json& v, Config& c, const std::string& at) {
 
 std::string any_text(const std::string& text, const std::string&) { return text; }
 
+// A key holding a list of strings, each checked by `Parse`: the file gives the whole
+// list; the flag repeats, its first use replacing the file's list (or the default).
+template <auto Field, auto Parse, const char* What>
+void list_from_file(const json& v, Config& c, const std::string& at) {
+  c.*Field = string_list(v, at, What, Parse);
+}
+template <auto Field, auto Parse>
+void list_from_flag(const std::string& text, Config& c, bool first, const std::string& where) {
+  if (first) (c.*Field).clear();
+  (c.*Field).push_back(Parse(text, where));
+}
+
+constexpr char kHostNames[] = "host names";
+constexpr char kInterfacePatterns[] = "interface names or patterns";
+
 #define RSD_LIMIT(file, field)                                                                        \
   ConfigKey {                                                                                         \
     file, file, '\0', true, Reload::restart, number_from_file<&Config::field, parse_limit>,           \
@@ -179,14 +194,9 @@ const ConfigKey kKeys[] = {
      copy<&Config::http_host, &Config::http_port, &Config::http_set>,
      same<&Config::http_host, &Config::http_port>},
     {"allowed-hosts", "allowed-host", '\0', true, Reload::restart,
-     [](const json& v, Config& c, const std::string& at) {
-       c.allowed_hosts = string_list(v, at, "host names", parse_allowed_host);
-     },
-     [](const std::string& text, Config& c, bool first, const std::string& where) {
-       if (first) c.allowed_hosts.clear();
-       c.allowed_hosts.push_back(parse_allowed_host(text, where));
-     },
-     copy<&Config::allowed_hosts>, same<&Config::allowed_hosts>},
+     list_from_file<&Config::allowed_hosts, parse_allowed_host, kHostNames>,
+     list_from_flag<&Config::allowed_hosts, parse_allowed_host>, copy<&Config::allowed_hosts>,
+     same<&Config::allowed_hosts>},
     RSD_LIMIT("max-clients", max_clients),
     {"usb", "no-usb", '\0', false, Reload::live,
      [](const json& v, Config& c, const std::string& at) {
@@ -199,18 +209,11 @@ const ConfigKey kKeys[] = {
      text_from_file<&Config::participant_name, any_text>, text_from_flag<&Config::participant_name, any_text>,
      copy<&Config::participant_name>, same<&Config::participant_name>},
     {"interfaces", "interface", '\0', true, Reload::live,
-     [](const json& v, Config& c, const std::string& at) {
-       c.interfaces = string_list(v, at, "interface names or patterns", parse_interface_pattern);
-     },
-     [](const std::string& text, Config& c, bool first, const std::string& where) {
-       if (first) c.interfaces.clear();
-       c.interfaces.push_back(parse_interface_pattern(text, where));
-     },
-     copy<&Config::interfaces>, same<&Config::interfaces>},
+     list_from_file<&Config::interfaces, parse_interface_pattern, kInterfacePatterns>,
+     list_from_flag<&Config::interfaces, parse_interface_pattern>, copy<&Config::interfaces>,
+     same<&Config::interfaces>},
     {"exclude-interfaces", "exclude-interface", '\0', true, Reload::live,
-     [](const json& v, Config& c, const std::string& at) {
-       c.exclude_interfaces = string_list(v, at, "interface names or patterns", parse_interface_pattern);
-     },
+     list_from_file<&Config::exclude_interfaces, parse_interface_pattern, kInterfacePatterns>,
      [](const std::string& text, Config& c, bool first, const std::string& where) {
        if (first) c.exclude_interfaces.clear();  // the defaults go; 'none' leaves none
        if (text != "none") c.exclude_interfaces.push_back(parse_interface_pattern(text, where));
