@@ -203,10 +203,17 @@ def test_upgrade_restarts_keeps_the_conffile_and_refuses_no_request(system):
     # systemd's and queue what comes while the daemon restarts.
     refused = [r for r in results if r[1] in ("7", "28")]
     assert not refused, f"{len(refused)} of {len(results)} requests refused or unanswered: {refused[:10]}"
-    # Every answer is a 200: a request the stopping daemon accepted is answered by
-    # it (curl 52/56 were such requests cut, about 1 in 500, before it was).
-    wrong = [r for r in results if r != ["200", "0"]]
+    # The daemon stopped here is the previous release's (PREVIOUS_COMMIT), which
+    # predates d9f2183: it still cuts about 1 in 500 of the requests it accepted
+    # as it stops (curl 52/56, or 18 when the head was out and the body not; seen
+    # once in CI). That is the old binary, not this tree: counted and shown here.
+    # This tree's stop must cut none: test_restarts_fail_no_request restarts it.
+    cut = [r for r in results if r[1] in ("18", "52", "56")]
+    wrong = [r for r in results if r not in cut and r != ["200", "0"]]
     assert not wrong, f"{len(wrong)} of {len(results)} requests failed during the upgrade: {wrong[:10]}"
+    assert len(cut) <= max(2, len(results) // 50), f"the previous release cut {len(cut)} of {len(results)}: {cut}"
+    if cut:
+        nspawn.log(f"upgrade: {len(cut)} of {len(results)} requests cut by the previous release's stop: {cut}")
 
     assert new_pid != old_pid
     version = c.run("dpkg-query", "-W", "-f=${Version}", "rs-discoveryd").stdout
