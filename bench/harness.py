@@ -20,6 +20,10 @@ same run:
   discovery     realdds broadcast() -> `added` event, against a bare Cyclone reader
   removal       stopping -> `removed`, SIGKILL -> `removed` (lease), with the reader's floor
   scale         1,000 devices from 10 participants over 4 domains: time until listed, RSS
+  scale10k      10,000 cameras (raw Cyclone writers, realdds servers among them) from 100
+                participants over 4 domains: time until listed, RSS and where it goes (beside a
+                daemon with every cap at 1: Cyclone's share), full and filtered lists under 10
+                clients, one change to 100 SSE watchers (bench/scale_large.py)
   fanout        100 SSE watchers: change -> last watcher
   describe      Camera Discovery of a 5-stream realdds camera: first request -> description,
                 and a cached one, against pyrealdds' own device.wait_until_ready()
@@ -76,132 +80,12 @@ MODES = {
                   open_reps=1),
 }
 SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout", "describe",
-            "idle", "open"]
+            "idle", "open", "scale10k"]
 
 
-class BenchError(Exception):
-    pass
-
-
-def log(msg):
-    print(f"[bench {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
-
-
-def wait_until(pred, timeout, what, interval=0.02):
-    """pred()'s first truthy value; BenchError at the deadline (a wait, never a fixed sleep)."""
-    deadline = time.monotonic() + timeout
-    last = None
-    while time.monotonic() < deadline:
-        last = pred()
-        if last:
-            return last
-        time.sleep(interval)
-    raise BenchError(f"timed out after {timeout}s waiting for {what} (last: {last!r})")
-
-
-def stats(values):
-    """median and spread of repetitions."""
-    v = sorted(x for x in values if x is not None)
-    if not v:
-        return {"n": 0}
-
-    def q(p):
-        return v[min(len(v) - 1, int(round(p * (len(v) - 1))))]
-    out = {"median": statistics.median(v), "min": v[0], "max": v[-1], "p10": q(0.10), "p90": q(0.90),
-           "n": len(v)}
-    if len(v) > 1:
-        out["stdev"] = statistics.stdev(v)
-    if len(v) >= 20:
-        out["p99"] = q(0.99)
-    return out
-
-
-def ratio(a, b):
-    return a / b if a is not None and b not in (None, 0) else None
-
-
-def med_of(s):
-    return (s or {}).get("median")
-
-
-class Lines:
-    """A child process whose stdout is JSON lines, read on a thread, with timed waits."""
-
-    def __init__(self, args, **popen):
-        self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, **popen)
-        self.q = queue.Queue()
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self):
-        for line in self.proc.stdout:
-            if line.startswith("{"):
-                try:
-                    self.q.put(json.loads(line))
-                except ValueError:
-                    pass
-        self.q.put(None)
-
-    def wait(self, pred, timeout, what):
-        deadline = time.monotonic() + timeout
-        while True:
-            left = deadline - time.monotonic()
-            if left <= 0:
-                raise BenchError(f"timed out after {timeout}s waiting for {what}")
-            try:
-                item = self.q.get(timeout=left)
-            except queue.Empty:
-                raise BenchError(f"timed out after {timeout}s waiting for {what}") from None
-            if item is None:
-                raise BenchError(f"{self.proc.args[0]} ended while waiting for {what}")
-            if pred(item):
-                return item
-
-    def drain(self):
-        out = []
-        while True:
-            try:
-                item = self.q.get_nowait()
-            except queue.Empty:
-                return out
-            if item is not None:
-                out.append(item)
-
-    def close(self):
-        try:
-            self.proc.stdin.close()
-        except OSError:
-            pass
-        try:
-            self.proc.wait(5)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-
-
-def unix_get(sock_path, path, timeout=5.0):
-    status, _, body = conftest.request_once(conftest.UnixHTTPConnection(sock_path, timeout=timeout), path)
-    return status, body
-
-
-def rss_kb(pid):
-    with open(f"/proc/{pid}/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1])
-    return None
-
-
-def cpu_seconds(pid):
-    with open(f"/proc/{pid}/stat") as f:
-        fields = f.read().rsplit(")", 1)[1].split()
-    tck = os.sysconf("SC_CLK_TCK")
-    return (int(fields[11]) + int(fields[12])) / tck  # utime + stime (fields 14, 15)
-
-
-def device_info(n, prefix="9"):
-    serial = f"{prefix}{n:011d}"
-    return {"name": "Intel RealSense D455", "serial": serial, "product-line": "D400", "product-id": "0B5C",
-            "fw-version": "5.16.0.1", "topic-root": f"realsense/D455_{serial}"}
+import scale_large  # noqa: E402
+from bench_common import (  # noqa: E402
+    BenchError, log, wait_until, stats, ratio, med_of, Lines, unix_get, rss_kb, cpu_seconds, device_info)
 
 
 class Bench:
@@ -233,7 +117,7 @@ class Bench:
         self.python = sys.executable
 
     # ---- processes ---------------------------------------------------------------------
-    def start_daemon(self, domains, name):
+    def start_daemon(self, domains, name, extra=()):
         sock = os.path.join(self.tmp, f"{name}.sock")
         port = conftest.free_port()
         cfg = os.path.join(self.tmp, "empty-config.json")
@@ -243,7 +127,7 @@ class Bench:
         for d in domains:
             args += ["--domain", str(d)]
         args += ["--config", cfg, "--socket", sock, "--http", f"127.0.0.1:{port}", "--no-usb", "--log-level",
-                 "warning"]
+                 "warning"] + list(extra)
         d = conftest.Daemon(args, self.tmp, sock, port)
         self.cleanup.append(d.stop)
 
@@ -348,6 +232,7 @@ class Bench:
             self.section("scale", self.bench_scale)
             self.section("describe", self.bench_describe)
             self.section("open", self.bench_open)
+            self.section("scale10k", lambda: scale_large.run(self))
         finally:
             for fn in reversed(self.cleanup):
                 try:
@@ -1033,6 +918,7 @@ http {{
                          "anchor": f"bare reader's unmatch (the lease) {f(kf, 0)} ms",
                          "ratio": f"+{f(med(rm['sigkill_over_floor']), 0)} ms",
                          "target": "≤ lease + 0.5 s: " + verdict(ok)})
+        rows += scale_large.rows(R.get("scale10k", {}), f)
         sc = R.get("scale", {})
         if "listed_after_last_announced_s" in sc:
             t = sc["listed_after_last_announced_s"]
