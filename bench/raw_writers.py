@@ -15,9 +15,9 @@ writer, as realdds broadcasts on a match (the topic is VOLATILE: a sample writte
 the match is lost). The participants share one process, so they match each other
 locally, without the proxies a remote peer costs. Prints one JSON line once every writer
 has met --readers readers (the daemons of the bench): {"writers": P*N, "t":
-CLOCK_MONOTONIC of the last write}. Then,
-one JSON command per stdin line, each answered with one line carrying "t" (after the
-write or the deletion):
+CLOCK_MONOTONIC as the last write began}. Then,
+one JSON command per stdin line, each answered with one line carrying "t" (as the
+write began, or once the writer is deleted):
     {"cmd": "add", "info": {...}}          a new writer (participant 0) writes `info`
     {"cmd": "remove", "topic-root": "..."} deletes that writer (the daemon removes it)
 Exits when stdin closes.
@@ -25,11 +25,14 @@ Exits when stdin closes.
 import argparse
 import json
 import os
+import queue
 import sys
+import threading
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "tools"))
 
+from cyclonedds.core import Listener  # noqa: E402
 from cyclonedds.domain import DomainParticipant  # noqa: E402
 from cyclonedds.idl.types import byte  # noqa: E402
 from cyclonedds.pub import DataWriter  # noqa: E402
@@ -66,37 +69,74 @@ def main():
         return flexible(data_format=flexible_data_format(0), version=[0, 0, 0, 0],
                         data=list(json.dumps(info).encode()))
 
+    # realdds broadcasts a device's info on every new match, for as long as the server
+    # lives; so does each writer here: its listener queues it, the worker writes (never
+    # inside Cyclone's listener thread).
+    matches = queue.Queue()
+    readers_met = {}  # writer index -> readers matched so far (total_count)
+    met_all = threading.Event()
+    short = [0]
+    lock = threading.Lock()
+
+    class OnMatch(Listener):
+        def __init__(self, index):
+            super().__init__()
+            self.index = index
+
+        def on_publication_matched(self, writer, status):
+            if status.current_count_change > 0:
+                matches.put((self.index, writer))
+
     participants = [DomainParticipant(args.domain) for _ in range(args.participants)]
     topics = [Topic(p, TOPIC, flexible) for p in participants]
-    pending = []  # (writer, info) not written yet
+    writers, infos, built = [], [], []  # built[k]: writers[k] is set
     n = args.first
     for topic, participant in zip(topics, participants):
         for _ in range(args.devices):
-            pending.append((DataWriter(participant, topic, qos=QOS), device_info(args.prefix, n)))
+            infos.append(device_info(args.prefix, n))
+            writers.append(None)
+            built.append(threading.Event())
             n += 1
-    writers = [w for w, _ in pending]
-    seen = [0] * len(pending)  # readers each writer has written to (total_count)
-    deadline = time.monotonic() + args.match_timeout
-    last = time.monotonic()
-    # Discovery reaches the writers over some seconds: polled, written as each matches.
-    while True:
-        short = 0
-        for k, (w, info) in enumerate(pending):
-            total = w.get_publication_matched_status().total_count
-            if total > seen[k]:
-                w.write(sample(info))
-                seen[k] = total
-                last = time.monotonic()
-            if seen[k] < args.readers:
-                short += 1
-        if short == 0:
-            break
-        if time.monotonic() > deadline:
-            emit({"error": f"{short} of {len(writers)} writers matched fewer than {args.readers} readers "
-                           f"within {args.match_timeout} s"})
-            return 1
-        time.sleep(0.05)  # a poll of Cyclone's match status, not a wait for an answer
-    emit({"writers": len(writers), "t": last})
+    initial = short[0] = len(writers)
+    last = [time.monotonic()]
+
+    def serve():
+        while True:
+            item = matches.get()
+            if item is None:
+                return
+            k, w = item
+            if w is None:  # matched while its constructor ran: Python has no object for it yet
+                built[k].wait()
+                w = writers[k]
+            if w is None:  # removed meanwhile
+                continue
+            t_write = time.monotonic()
+            w.write(sample(infos[k]))
+            item = None  # no reference kept here: `remove` deletes a writer by dropping its last one
+            with lock:
+                last[0] = t_write
+                total = w.get_publication_matched_status().total_count
+                if k < initial and readers_met.get(k, 0) < args.readers <= total:
+                    short[0] -= 1
+                    if short[0] == 0:
+                        met_all.set()
+                readers_met[k] = total
+            w = None
+
+    worker = threading.Thread(target=serve, daemon=True)
+    worker.start()
+    k = 0
+    for topic, participant in zip(topics, participants):
+        for _ in range(args.devices):
+            writers[k] = DataWriter(participant, topic, qos=QOS, listener=OnMatch(k))
+            built[k].set()
+            k += 1
+    if not met_all.wait(args.match_timeout):
+        emit({"error": f"{short[0]} of {len(writers)} writers matched fewer than {args.readers} readers "
+                       f"within {args.match_timeout} s"})
+        return 1
+    emit({"writers": len(writers), "t": last[0]})
 
     extra = {}
     for line in sys.stdin:
@@ -105,20 +145,32 @@ def main():
         msg = json.loads(line)
         if msg.get("cmd") == "add":
             info = msg["info"]
-            w = DataWriter(participants[0], topics[0], qos=QOS)
-            while w.get_publication_matched_status().current_count < args.readers:
-                time.sleep(0.001)  # a poll of Cyclone's match status
-            w.write(sample(info))
+            k = len(infos)
+            infos.append(info)
+            writers.append(None)
+            built.append(threading.Event())
+            ready = threading.Event()
+            w = DataWriter(participants[0], topics[0], qos=QOS, listener=OnMatch(k))
+            writers[k] = w
+            built[k].set()
             extra[info["topic-root"]] = w
-            emit({"ok": True, "t": time.monotonic()})
+            # Answered once every reader has been written to (the worker's broadcast).
+            while readers_met.get(k, 0) < args.readers:
+                ready.wait(0.001)
+            emit({"ok": True, "t": last[0]})
         elif msg.get("cmd") == "remove":
             w = extra.pop(msg["topic-root"], None)
+            if w is not None:
+                writers[writers.index(w)] = None
             if w is None:
                 emit({"ok": False, "error": "no such writer"})
                 continue
-            t = time.monotonic()
-            del w  # the last reference: Cyclone deletes the writer, the daemon sees it go
-            emit({"ok": True, "t": t})
+            t0 = time.monotonic()
+            # The last reference: Cyclone deletes the writer. That blocks while the
+            # writer lingers for its readers' acks (~200 ms here): "t" is when it is
+            # gone, "t_asked" when the deletion began.
+            del w
+            emit({"ok": True, "t": time.monotonic(), "t_asked": t0})
         else:
             emit({"ok": False, "error": f"unknown command {msg!r}"})
     return 0
