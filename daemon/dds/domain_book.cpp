@@ -122,17 +122,18 @@ void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann:
   nlohmann::json server = nlohmann::json::object();
   if (writer) {
     const WriterIdentity& w = writer->identity;
-    server = model::to_json(model::Server{w.participant_guid, w.participant_name, w.addresses, w.guid});
+    model::Server typed{w.participant_guid, w.participant_name, w.addresses, w.guid};
+    server = model::to_json(typed);
     lost_.announced(w.participant_guid);  // found again, if it was lost
     auto& list = device.announcers;
     const auto it = std::find_if(list.begin(), list.end(), [&](const auto& a) { return a.first == w.guid; });
     if (it != list.end()) list.erase(it);
     else ++per_participant_[w.participant_guid];
-    list.emplace_back(w.guid, server);  // the latest announcer is shown
+    list.emplace_back(w.guid, std::move(typed));  // the latest announcer is shown
     devices_of_writer_[w.guid].insert(id);
   }
   doc[model::key::server] = std::move(server);
-  device.doc = doc;
+  device.doc = model::device_from_json(doc);
   if (auto ev = table_.upsert(id, std::move(doc)); ev && ev->type == EventType::added)
     log::info(prefix() + "device " + id + " added (from " + (writer ? writer->identity.guid : "unknown writer") +
               ")");
@@ -171,10 +172,10 @@ bool DomainBook::drop_announcer(const std::string& id, const std::string& writer
     return true;
   }
   if (was_shown) {  // another server still serves it: show that one
-    dev->second.doc[model::key::server] = list.back().second;
+    dev->second.doc.server = list.back().second;
     log::info(prefix() + "device " + id + " now served by writer " + list.back().first + " (" + writer_guid +
               " left: " + why + ")");
-    table_.upsert(id, dev->second.doc);
+    table_.upsert(id, model::to_json(dev->second.doc));
   }
   return false;
 }
@@ -204,12 +205,11 @@ void DomainBook::remove_device(const std::string& id, const std::string& why) {
   std::string by;  // the server a user knows it by: its name and address, not a GUID
   if (const auto dev = devices_.find(id); dev != devices_.end()) {
     for (const auto& [writer, server] : dev->second.announcers) unindex(writer, id);
-    const auto& server = dev->second.doc.value(model::key::server, nlohmann::json::object());
-    const std::string name = server.value("participant-name", std::string());
-    const auto addresses = server.value("addresses", nlohmann::json::array());
+    const model::Server server = dev->second.doc.server.value_or(model::Server{});
+    const std::string name = server.participant_name.value_or("");
+    const std::vector<std::string> addresses = server.addresses.value_or(std::vector<std::string>{});
     if (!name.empty() || !addresses.empty())
-      by = " (server '" + name + "'" +
-           (addresses.empty() || !addresses[0].is_string() ? "" : " at " + addresses[0].get<std::string>()) + ")";
+      by = " (server '" + name + "'" + (addresses.empty() ? "" : " at " + addresses[0]) + ")";
   }
   log::info(prefix() + "device " + id + " removed: " + why + by);
   table_.remove(id);
@@ -359,10 +359,9 @@ std::map<std::string, PublisherCounts> DomainBook::publishers(Clock::time_point 
     if (!w.sent && now - w.matched_at >= options_.silent_grace) ++c.silent;
   }
   for (const auto& [id, device] : devices_) {
-    const auto root = device.doc.find("topic-root");
-    if (root == device.doc.end() || !root->is_string()) continue;
+    if (!device.doc.topic_root) continue;
     for (const auto& [writer, server] : device.announcers)
-      if (auto c = out.find(participant_of(writer)); c != out.end()) c->second.topic_roots.push_back(root->get<std::string>());
+      if (auto c = out.find(participant_of(writer)); c != out.end()) c->second.topic_roots.push_back(*device.doc.topic_root);
   }
   for (auto& [guid, c] : out) {
     const auto n = per_participant_.find(guid);
@@ -382,18 +381,20 @@ void DomainBook::forget_devices() {
 std::optional<nlohmann::json> DomainBook::announcement(const std::string& topic_root) const {
   const auto it = devices_.find(device_id(options_.domain, topic_root));
   if (it == devices_.end()) return std::nullopt;
-  return it->second.doc;
+  return model::to_json(it->second.doc);
 }
 
 std::map<std::string, nlohmann::json> DomainBook::announcements() const {
   std::map<std::string, nlohmann::json> out;
-  for (const auto& [id, device] : devices_) out.emplace(device.doc[model::key::topic_root].get<std::string>(), device.doc);
+  for (const auto& [id, device] : devices_)
+    if (device.doc.topic_root) out.emplace(*device.doc.topic_root, model::to_json(device.doc));
   return out;
 }
 
 std::set<std::string> DomainBook::topic_roots() const {
   std::set<std::string> out;
-  for (const auto& [id, device] : devices_) out.insert(device.doc[model::key::topic_root].get<std::string>());
+  for (const auto& [id, device] : devices_)
+    if (device.doc.topic_root) out.insert(*device.doc.topic_root);
   return out;
 }
 

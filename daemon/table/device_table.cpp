@@ -55,17 +55,25 @@ const std::string* string_field(const nlohmann::json& doc, const char* key) {
   return it->get_ptr<const std::string*>();
 }
 
+// The source a sighting names: the model's, or another one by its name (kept in
+// `extra`, as every value the model has no type for).
+std::optional<std::string> source_name(const model::Device& sighting) {
+  if (sighting.source) return std::string(model::to_string(*sighting.source));
+  const auto it = sighting.extra.find(model::key::source);
+  if (it == sighting.extra.end() || !it->is_string()) return std::nullopt;
+  return it->get<std::string>();
+}
+
 // The key on which sightings may merge: the exact serial of a sighting that says
 // which source it comes from. Nothing else (no prefixes, no case folding).
-std::optional<std::string> merge_key(const nlohmann::json& doc) {
-  const auto* source = string_field(doc, model::key::source);
-  const auto* serial = string_field(doc, model::key::serial);
-  if (!source || source->empty() || !serial || serial->empty()) return std::nullopt;
-  return *serial;
+std::optional<std::string> merge_key(const model::Device& sighting) {
+  const auto source = source_name(sighting);
+  if (!source || source->empty() || !sighting.serial || sighting.serial->empty()) return std::nullopt;
+  return *sighting.serial;
 }
 }  // namespace
 
-void DeviceTable::index(const std::string& id, const nlohmann::json& sighting, bool add) {
+void DeviceTable::index(const std::string& id, const model::Device& sighting, bool add) {
   auto key = merge_key(sighting);
   if (!key) return;
   if (add) {
@@ -104,7 +112,7 @@ DeviceTable::Layout DeviceTable::layout(const std::set<std::string>& sightings) 
     // The lowest id of each source takes part; the first source names the entry.
     std::map<std::pair<std::size_t, std::string>, std::string> first_of_source;
     for (const auto& id : ids) {
-      const auto rank = source_rank(*string_field(sightings_.at(id), model::key::source));
+      const auto rank = source_rank(*source_name(sightings_.at(id)));
       first_of_source.emplace(rank, id);  // ids are sorted: the first one stays
     }
     std::vector<std::string> members;
@@ -117,12 +125,12 @@ DeviceTable::Layout DeviceTable::layout(const std::set<std::string>& sightings) 
 }
 
 nlohmann::json DeviceTable::build_entry(const std::vector<std::string>& members) const {
-  nlohmann::json entry = sightings_.at(members.front());
+  nlohmann::json entry = model::to_json(sightings_.at(members.front()));
   const bool sourced = string_field(entry, model::key::source) != nullptr;
   std::set<std::string> sources;
   if (sourced) sources.insert(*string_field(entry, model::key::source));
   for (std::size_t i = 1; i < members.size(); ++i) {
-    const auto& other = sightings_.at(members[i]);
+    const nlohmann::json other = model::to_json(sightings_.at(members[i]));
     if (const auto* src = string_field(other, model::key::source)) sources.insert(*src);
     for (const auto& [key, value] : other.items()) {
       if (key == model::key::id || key == model::key::source || key == kSources || key == kFirstSeen ||
@@ -193,11 +201,12 @@ std::optional<DeviceEvent> DeviceTable::upsert(const std::string& id, nlohmann::
   if (old == sightings_.end()) {
     doc[kFirstSeen] = now;
   } else {
-    doc[kFirstSeen] = old->second.value(kFirstSeen, now);
+    doc[kFirstSeen] = old->second.first_seen.value_or(now);
     index(id, old->second, false);
   }
-  index(id, doc, true);
-  sightings_[id] = std::move(doc);
+  model::Device sighting = model::device_from_json(doc);
+  index(id, sighting, true);
+  sightings_[id] = std::move(sighting);
   for (const auto& other : group_of(id)) affected.insert(other);
   std::set<std::string> old_entries;
   for (const auto& s : affected)
@@ -229,10 +238,10 @@ std::optional<DeviceEvent> DeviceTable::remove(const std::string& id) {
 }
 
 std::vector<DeviceEvent> DeviceTable::remove_if(
-    const std::function<bool(const nlohmann::json&)>& pred) {
+    const std::function<bool(const model::Device&)>& pred) {
   std::vector<std::string> doomed;
-  for (const auto& [id, doc] : sightings_)
-    if (pred(doc)) doomed.push_back(id);
+  for (const auto& [id, sighting] : sightings_)
+    if (pred(sighting)) doomed.push_back(id);
   std::vector<DeviceEvent> events;
   for (const auto& id : doomed) {
     std::string old_entry;

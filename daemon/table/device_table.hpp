@@ -115,9 +115,9 @@ class DeviceTable {
   // merged into) without changing it; nothing when there is no such entry.
   std::optional<DeviceEvent> note_described(const std::string& id);
 
-  // Removes every sighting whose document (as its source gave it, with "id" and
-  // the timestamps) satisfies `pred`; returns every event that caused.
-  std::vector<DeviceEvent> remove_if(const std::function<bool(const nlohmann::json&)>& pred);
+  // Removes every sighting that (as its source gave it, with "id" and the
+  // timestamps) satisfies `pred`; returns every event that caused.
+  std::vector<DeviceEvent> remove_if(const std::function<bool(const model::Device&)>& pred);
 
   // The entry with this id, or the entry a sighting with this id is merged into.
   EntryPtr find(const std::string& id) const;
@@ -132,7 +132,7 @@ class DeviceTable {
   DeviceEvent record(EventType type, EntryPtr entry, EntryPtr previous = nullptr);
 
   using Layout = std::map<std::string, std::vector<std::string>>;  // entry id -> sightings, primary first
-  void index(const std::string& id, const nlohmann::json& sighting, bool add);
+  void index(const std::string& id, const model::Device& sighting, bool add);
   std::set<std::string> group_of(const std::string& sighting_id) const;
   Layout layout(const std::set<std::string>& sightings) const;
   nlohmann::json build_entry(const std::vector<std::string>& members) const;
@@ -144,7 +144,9 @@ class DeviceTable {
                                        const std::string& entry_id) const;
   std::vector<DeviceEvent> remove_sighting(const std::string& id, std::string& old_entry);
 
-  std::map<std::string, nlohmann::json> sightings_;  // as the sources gave them
+  // As the sources gave them, typed: as JSON objects they were the largest part of
+  // the daemon's memory per camera (~2.3 KB of 10 KB at 10,000 cameras, massif).
+  std::map<std::string, model::Device> sightings_;
   std::map<std::string, std::set<std::string>> by_serial_;  // merge key -> sighting ids
   std::map<std::string, std::string> owner_;        // sighting id -> entry id
   std::map<std::string, EntryPtr> devices_;        // the entries, what everyone sees

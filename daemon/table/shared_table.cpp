@@ -49,7 +49,7 @@ std::optional<DeviceEvent> SharedTable::note_described(const std::string& id) {
 }
 
 std::vector<DeviceEvent> SharedTable::remove_if(
-    const std::function<bool(const nlohmann::json&)>& pred) {
+    const std::function<bool(const model::Device&)>& pred) {
   std::vector<DeviceEvent> events;
   {
     std::lock_guard lock(mutex_);

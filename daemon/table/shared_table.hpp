@@ -26,7 +26,7 @@ class SharedTable {
   std::optional<DeviceEvent> upsert(const std::string& id, nlohmann::json doc);
   std::optional<DeviceEvent> remove(const std::string& id);
   std::optional<DeviceEvent> note_described(const std::string& id);
-  std::vector<DeviceEvent> remove_if(const std::function<bool(const nlohmann::json&)>& pred);
+  std::vector<DeviceEvent> remove_if(const std::function<bool(const model::Device&)>& pred);
 
   TableSnapshot snapshot() const;
   EntryPtr find_entry(const std::string& id) const;  // DeviceTable::find

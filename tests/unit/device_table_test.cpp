@@ -70,7 +70,7 @@ TEST(DeviceTable, RemoveIfRemovesOnlyMatches) {
   t.upsert("a", {{"domain", 1}}, "T");
   t.upsert("b", {{"domain", 2}}, "T");
   t.upsert("c", {{"domain", 1}}, "T");
-  auto events = t.remove_if([](const json& d) { return d["domain"] == 1; });
+  auto events = t.remove_if([](const rsd::model::Device& d) { return d.domain == 1; });
   ASSERT_EQ(events.size(), 2u);
   EXPECT_EQ(t.size(), 1u);
   EXPECT_NE(t.find("b"), nullptr);

@@ -170,13 +170,13 @@ TEST(TableMerge, RemoveIfSeesSightingsNotEntries) {
   t.upsert("dds-7-x", dds("1"), "T");
   t.upsert("usb-1", usb("1"), "T");
   t.upsert("usb-2", usb("2"), "T");
-  auto events = t.remove_if([](const json& d) { return d.value("source", "") == "usb"; });
+  auto events = t.remove_if([](const rsd::model::Device& d) { return d.source == rsd::model::Source::usb; });
   EXPECT_EQ(events.size(), 2u);  // dds-7-x changed, usb-2 removed
   EXPECT_EQ(ids(t), std::vector<std::string>{"dds-7-x"});
   EXPECT_FALSE(t.find("dds-7-x")->json().contains("usb"));
   // The domain's DDS side torn down: the USB camera would stay.
   t.upsert("usb-1", usb("1"), "T");
-  t.remove_if([](const json& d) { return d.value("domain", -1) == 7; });
+  t.remove_if([](const rsd::model::Device& d) { return d.domain == 7; });
   EXPECT_EQ(ids(t), std::vector<std::string>{"usb-1"});
 }
 
