@@ -231,8 +231,11 @@ void DomainSession::create_reader() {
   // writer's samples share one instance: a server announcing many devices at
   // once overflows that before the listener takes them (42 of 100 seen). History
   // is not matched against writers, so the daemon keeps more (reader_history),
-  // but not all: a flooding writer once queued 150,000 samples here.
-  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, options_.reader_history);
+  // but not all: a flooding writer once queued 150,000 samples here. A site that
+  // raises the domain's device cap gets a history as deep: 2,500 raw writers of one
+  // domain announcing at once (bench scale10k) must not overwrite each other.
+  const auto cap = static_cast<int>(std::min<std::size_t>(options_.book.max_devices_per_domain, 1 << 20));
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, std::max(options_.reader_history, cap));
   dds_listener_t* listener = dds_create_listener(this);
   dds_lset_data_available(listener, &DomainSession::on_data_available);
   dds_lset_subscription_matched(listener, &DomainSession::on_subscription_matched);
