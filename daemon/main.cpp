@@ -2,6 +2,7 @@
 #include "api/api_server.hpp"
 #include "config/config.hpp"
 #include "config/config_check.hpp"
+#include "config/daemon_options.hpp"
 #include "log/log.hpp"
 #include "service/domain_set.hpp"
 #include "service/listen_sockets.hpp"
@@ -21,7 +22,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -101,9 +101,8 @@ int main(int argc, char** argv) {
     return 0;
   }
   const rsd::Config& config = cl.config;
-  rsd::log::Level level{};
-  rsd::log::parse_level(config.log_level, level);
-  rsd::log::set_level(level);
+  const rsd::DaemonOptions options = rsd::daemon_options(config);
+  rsd::log::set_level(options.log_level);
 
   const int signal_fd = block_signals();
   if (signal_fd < 0) {
@@ -112,26 +111,10 @@ int main(int argc, char** argv) {
   }
 
   rsd::SharedTable table(4096, first_generation());
-  rsd::dds::SessionOptions session_options;
-  session_options.participant_name = config.participant_name;
-  session_options.cyclone_config = config.cyclonedds_config;
-  session_options.book.max_devices_per_participant = config.max_devices_per_participant;
-  session_options.book.max_devices_per_domain = config.max_devices_per_domain;
-  session_options.book.max_writers_per_participant = config.max_writers_per_participant;
-  session_options.book.max_writers_per_domain = config.max_writers_per_domain;
-  session_options.describe_timeout = std::chrono::seconds(config.describe_timeout_s);
-  session_options.describe_eagerly = config.describe_eagerly_all;
-  session_options.describe_eagerly_in = {config.describe_eagerly.begin(), config.describe_eagerly.end()};
-  // An explicit choice of interfaces in the Cyclone configuration (the option, else
-  // CYCLONEDDS_URI) is the user's: the daemon then neither chooses nor follows.
-  const char* cyclone_uri = std::getenv("CYCLONEDDS_URI");
-  session_options.interfaces_from_cyclone_config = rsd::net::cyclone_config_names_interfaces(
-      !config.cyclonedds_config.empty() ? config.cyclonedds_config : cyclone_uri ? cyclone_uri : "");
-  rsd::service::DomainSet domains(table, session_options);
-  rsd::service::NetworkWatch network(domains, {config.interfaces, config.exclude_interfaces},
-                                     !session_options.interfaces_from_cyclone_config);
+  rsd::service::DomainSet domains(table, options.session);
+  rsd::service::NetworkWatch network(domains, options.interfaces, !options.session.interfaces_from_cyclone_config);
   try {
-    domains.start(config.domains);
+    domains.start(options.domains);
   } catch (const std::exception& e) {
     rsd::log::error(e.what());
     return 1;
@@ -139,26 +122,20 @@ int main(int argc, char** argv) {
   // Local cameras, listed before the API opens; without USB access the source
   // logs why and DDS carries on.
   rsd::service::UsbWatch usb(table);
-  usb.apply(config.usb);
+  usb.apply(options.usb);
   rsd::service::Service service(table, domains, usb, config, std::vector<std::string>(argv, argv + argc));
   service.set_network(&network);
 
-  const rsd::service::SourcesStatus status(domains, usb, std::chrono::seconds(config.describe_timeout_s));
+  const rsd::service::SourcesStatus status(domains, usb, options.session.describe_timeout);
   rsd::api::ApiServer api(table, status, RSD_VERSION);
-  rsd::api::ApiOptions api_options;
-  api_options.unix_socket = config.socket_path;
-  api_options.http_host = config.http_host;
-  api_options.http_port = config.http_port;
-  api_options.http_configured = config.http_set;
-  api_options.allowed_hosts = config.allowed_hosts;
-  api_options.max_connections = config.max_clients;
+  rsd::api::ApiOptions api_options = options.api;
   try {
     // Socket activation: systemd's sockets take the place of the configured ones.
     const auto passed = rsd::service::take_listen_sockets();
     for (const auto& note : passed.notes) rsd::log::info(note);
     api_options.inherited_unix_fd = passed.unix_fd;
     api_options.inherited_http_fd = passed.http_fd;
-    if (passed.unix_fd < 0 && !config.socket_path.empty()) make_socket_directory(config.socket_path);
+    if (passed.unix_fd < 0 && !api_options.unix_socket.empty()) make_socket_directory(api_options.unix_socket);
     api.start(api_options);
   } catch (const std::exception& e) {
     rsd::log::error(e.what());
@@ -166,12 +143,12 @@ int main(int argc, char** argv) {
   }
   service.api_listening();
   const std::string on_unix = api_options.inherited_unix_fd >= 0 ? "the Unix socket from systemd"
-                              : config.socket_path.empty()       ? ""
-                                                                 : "unix:" + config.socket_path;
+                              : api_options.unix_socket.empty()  ? ""
+                                                                 : "unix:" + api_options.unix_socket;
   const std::string on_http = api_options.inherited_http_fd >= 0 ? "the HTTP socket from systemd"
-                              : config.http_host.empty()
+                              : api_options.http_host.empty()
                                   ? ""
-                                  : "http://" + config.http_host + ":" + std::to_string(api.http_port());
+                                  : "http://" + api_options.http_host + ":" + std::to_string(api.http_port());
   rsd::log::notice(std::string("rs-discoveryd ") + RSD_VERSION + " serving" +
                    (on_unix.empty() ? "" : " on " + on_unix) +
                    (on_http.empty() ? "" : (on_unix.empty() ? " on " : " and on ") + on_http));

@@ -1,5 +1,7 @@
-// What every rs-discover subcommand shares: option parsing, the client, errors and
-// exit codes, tables and colour. One subcommand per cmd_*.cpp file.
+// What every rs-discover subcommand shares: option parsing (options.cpp), the client,
+// filters, errors and exit codes (daemon_client.cpp), tables, colour and times
+// (output.cpp), --format templates (format_template.cpp). One subcommand per
+// cmd_*.cpp file.
 #pragma once
 
 #include <rsdiscovery/rsdiscovery.hpp>

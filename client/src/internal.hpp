@@ -138,8 +138,6 @@ class Transport {
 
  private:
   struct Connection;
-  std::string request_text(const std::string& path, const char* accept,
-                           const std::vector<std::pair<std::string, std::string>>& extra) const;
   [[noreturn]] void fail(int io_end, std::chrono::milliseconds timeout) const;
   void drop_kept();
 

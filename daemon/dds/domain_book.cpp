@@ -3,6 +3,7 @@
 #include "rsd_model/device.hpp"
 
 #include "log/log.hpp"
+#include "status/reasons.hpp"
 
 #include <algorithm>
 
@@ -36,11 +37,11 @@ bool DomainBook::writer_matched(Handle writer, WriterIdentity identity, Clock::t
   if (refused_.count(writer)) return false;
   std::string reason, detail;
   if (writers_.size() >= options_.max_writers_per_domain) {
-    reason = "domain-writer-limit";
+    reason = kDomainWriterLimit;
     detail = "the domain has " + std::to_string(writers_.size()) + " device-info writers already";
   } else if (const auto n = writers_of_.find(identity.participant_guid);
              n != writers_of_.end() && n->second >= options_.max_writers_per_participant) {
-    reason = "participant-writer-limit";
+    reason = kParticipantWriterLimit;
     detail = "its participant has " + std::to_string(n->second) + " device-info writers already";
   }
   if (!reason.empty()) {
@@ -72,7 +73,7 @@ std::map<DomainBook::Handle, DomainBook::Writer>::iterator DomainBook::erase_wri
 
 void DomainBook::sample(Handle handle, Parsed parsed) {
   if (refused_.count(handle)) {  // counted once as a writer; its messages in bulk
-    ++rejected_["refused-writer"];
+    ++rejected_[kRefusedWriter];
     return;
   }
   Writer* writer = nullptr;
@@ -94,14 +95,14 @@ void DomainBook::sample(Handle handle, Parsed parsed) {
   const std::string id = device_id(options_.domain, info.topic_root);
   if (!devices_.count(id)) {
     if (devices_.size() >= options_.max_devices_per_domain) {
-      reject("domain-device-limit", "the domain has " + std::to_string(devices_.size()) + " devices already",
+      reject(kDomainDeviceLimit, "the domain has " + std::to_string(devices_.size()) + " devices already",
              sender);
       return;
     }
     if (writer) {
       const std::size_t n = per_participant_[writer->identity.participant_guid];
       if (n >= options_.max_devices_per_participant) {
-        reject("participant-device-limit", "its participant announces " + std::to_string(n) + " devices already",
+        reject(kParticipantDeviceLimit, "its participant announces " + std::to_string(n) + " devices already",
                sender);
         return;
       }

@@ -1,6 +1,7 @@
 #include "service/service.hpp"
 
 #include "config/config_keys.hpp"
+#include "config/daemon_options.hpp"
 #include "log/log.hpp"
 
 #include <algorithm>
@@ -129,31 +130,30 @@ void Service::reload() {
     return;
   }
   const Config& next = cl.config;
+  // The live part of the options (daemon_options, as main() made the parts).
+  const DaemonOptions running = daemon_options(config_), options = daemon_options(next);
 
-  log::Level level{};
-  if (log::parse_level(next.log_level, level)) log::set_level(level);
-  config_.log_level = next.log_level;
-
-  if (network_ && (next.interfaces != config_.interfaces || next.exclude_interfaces != config_.exclude_interfaces)) {
-    network_->apply({next.interfaces, next.exclude_interfaces}, std::chrono::steady_clock::now());
-    config_.interfaces = next.interfaces;
-    config_.exclude_interfaces = next.exclude_interfaces;
-  }
-  const auto change = domains_.apply(next.domains);
-  config_.domains = domains_.ids();
-  config_.config_file = next.config_file;
+  log::set_level(options.log_level);
+  if (network_ && (options.interfaces.include != running.interfaces.include ||
+                   options.interfaces.exclude != running.interfaces.exclude))
+    network_->apply(options.interfaces, std::chrono::steady_clock::now());
+  const auto change = domains_.apply(options.domains);
 
   // What listeners and DDS participants were made with waits for a restart; the
   // key table (config_keys) says which keys those are.
   const auto restart_only = restart_only_changes(config_, next);
   if (!restart_only.empty())
     log::warning("reload: " + join(restart_only, ", ") + " changed; that takes effect on restart");
+  // The running configuration takes the next one's live keys, the domains as joined.
+  for (const auto& key : config_keys())
+    if (key.reload == Reload::live) key.copy(next, config_);
+  config_.domains = domains_.ids();
+  config_.config_file = next.config_file;
 
   note_ = change.failed.empty() ? "" : "reload could not join " + join(change.failed, "; ");
   std::vector<std::string> what;
   // USB on or off, live: off takes the USB devices out of the table.
-  if (usb_.apply(next.usb)) what.push_back(next.usb ? "USB watched" : "USB no longer watched");
-  config_.usb = next.usb;
+  if (usb_.apply(options.usb)) what.push_back(options.usb ? "USB watched" : "USB no longer watched");
   if (!change.joined.empty()) {
     std::vector<std::string> j;
     for (int d : change.joined) j.push_back(std::to_string(d));

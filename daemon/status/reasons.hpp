@@ -16,10 +16,14 @@ inline constexpr const char* kParseRejectReasons[] = {
 
 // The domain's bookkeeping (dds/domain_book.cpp): beyond a device cap, or sent by a
 // writer a writer cap refused.
-inline constexpr const char* kBookRejectReasons[] = {"participant-device-limit", "domain-device-limit",
-                                                     "refused-writer"};
+inline constexpr const char* kParticipantDeviceLimit = "participant-device-limit";
+inline constexpr const char* kDomainDeviceLimit = "domain-device-limit";
+inline constexpr const char* kRefusedWriter = "refused-writer";
+inline constexpr const char* kBookRejectReasons[] = {kParticipantDeviceLimit, kDomainDeviceLimit, kRefusedWriter};
 
 // Writers refused by a writer cap (dds/domain_book.cpp).
-inline constexpr const char* kWriterRefusedReasons[] = {"participant-writer-limit", "domain-writer-limit"};
+inline constexpr const char* kParticipantWriterLimit = "participant-writer-limit";
+inline constexpr const char* kDomainWriterLimit = "domain-writer-limit";
+inline constexpr const char* kWriterRefusedReasons[] = {kParticipantWriterLimit, kDomainWriterLimit};
 
 }  // namespace rsd

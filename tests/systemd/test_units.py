@@ -1,6 +1,7 @@
 """The unit files as systemd reads them: `systemd-analyze verify`, the offline
 security score (target: exposure <= 1.5), the sysusers entry, the default config,
-and the reload commands run in order as systemd runs them."""
+the exit status that is not restarted, and the reload commands run in order as
+systemd runs them."""
 import os
 import re
 import shlex
@@ -62,6 +63,24 @@ def unit_commands(key, daemon):
     lines = [l.split("=", 1)[1] for l in open(os.path.join(UNITS, "rs-discoveryd.service")).read().splitlines()
              if l.startswith(key + "=")]
     return [shlex.split(l.replace("$$", "$").replace("/usr/sbin/rs-discoveryd", daemon)) for l in lines]
+
+
+def test_a_configuration_the_daemon_cannot_use_is_not_restarted(tmp_path):
+    """A restart loop cannot fix a bad configuration: the unit's RestartPreventExitStatus=
+    is the status the daemon exits with for one (a bad file, a bad flag), and only that
+    (a domain or a port it could not take exits 1, and a later start may succeed)."""
+    prevented = [s for line in unit_commands("RestartPreventExitStatus", DAEMON) for s in line]
+    assert prevented, "the unit has no RestartPreventExitStatus="
+    bad = tmp_path / "config.json"
+    bad.write_text('{"domains": [0,\n')
+    exits = set()
+    for args in (["--config", str(bad)], ["--domain", "999"], ["--no-such-flag"]):
+        # A socket and HTTP of its own, should it start after all (then the timeout fails the test).
+        r = subprocess.run([DAEMON, "--socket", str(tmp_path / "api.sock"), "--http", "off", *args],
+                           capture_output=True, text=True, timeout=30)
+        assert "rs-discoveryd: " in r.stderr, (args, r.stderr)
+        exits.add(r.returncode)
+    assert sorted(str(e) for e in exits) == prevented
 
 
 def systemctl_reload(daemon, pid):

@@ -1,8 +1,10 @@
 // The key table (daemon/config/config_keys) against what reads it and what repeats
 // it in prose: the file and flag parsers, Service::reload's restart-only warning,
-// and --help. A key added to one and not the others fails here.
+// the daemon's options (daemon_options) and --help. A key added to one and not the
+// others fails here.
 #include "config/config.hpp"
 #include "config/config_keys.hpp"
+#include "config/daemon_options.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,6 +13,7 @@
 #include <map>
 #include <regex>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -184,4 +187,85 @@ TEST(ConfigKeys, HelpNamesEveryFileKeyAndWhatReloadApplies) {
   for (const auto& k : rsd::config_keys())
     if (k.reload == rsd::Reload::live) live.insert(k.file);
   EXPECT_EQ(names_in(between(help, "SIGHUP applies", "; the other keys take")), live);
+}
+
+namespace {
+
+// Every option daemon_options() sets, as one text to compare.
+std::string options_text(const rsd::DaemonOptions& o) {
+  std::ostringstream out;
+  const auto list = [&](const auto& values) {
+    for (const auto& v : values) out << v << ',';
+    out << ';';
+  };
+  out << static_cast<int>(o.log_level) << ';' << o.usb << ';';
+  list(o.domains);
+  const auto& s = o.session;
+  out << s.participant_name << ';' << s.cyclone_config << ';' << s.interfaces_from_cyclone_config << ';'
+      << s.book.max_devices_per_participant << ';' << s.book.max_devices_per_domain << ';'
+      << s.book.max_writers_per_participant << ';' << s.book.max_writers_per_domain << ';'
+      << s.describe_timeout.count() << ';' << s.describe_eagerly << ';';
+  list(s.describe_eagerly_in);
+  list(o.interfaces.include);
+  list(o.interfaces.exclude);
+  const auto& a = o.api;
+  out << a.unix_socket << ';' << a.http_host << ';' << a.http_port << ';' << a.http_configured << ';'
+      << a.max_connections << ';';
+  list(a.allowed_hosts);
+  return out.str();
+}
+
+}  // namespace
+
+TEST(DaemonOptions, EveryKeyReachesAnOptionOfTheDaemonsParts) {
+  const std::string defaults = options_text(rsd::daemon_options(Config{}, ""));
+  for (const auto& k : rsd::config_keys()) {
+    const std::string key = k.file;
+    Config c;
+    rsd::apply_config_json("{\"" + key + "\": " + samples().at(key).json + "}", c);
+    EXPECT_NE(options_text(rsd::daemon_options(c, "")), defaults) << key << " reaches none of the options";
+  }
+}
+
+TEST(DaemonOptions, EachValueLandsWhereItsPartReadsIt) {
+  Config c;
+  rsd::apply_config_json(R"({"domains": [3, 7], "usb": false, "log-level": "debug", "socket": "/tmp/s.sock",
+      "http": "[::1]:9002", "allowed-hosts": ["a.example"], "max-clients": 64, "participant-name": "p",
+      "interfaces": ["eth1"], "exclude-interfaces": ["eth9"], "max-devices-per-participant": 16,
+      "max-devices-per-domain": 64, "max-writers-per-participant": 7, "max-writers-per-domain": 6,
+      "describe-timeout": 5, "describe-eagerly": [0, 5]})",
+                         c);
+  const auto o = rsd::daemon_options(c, "");
+  EXPECT_EQ(o.domains, (std::vector<int>{3, 7}));
+  EXPECT_FALSE(o.usb);
+  EXPECT_EQ(o.log_level, rsd::log::Level::debug);
+  EXPECT_EQ(o.session.participant_name, "p");
+  EXPECT_EQ(o.session.book.max_devices_per_participant, 16u);
+  EXPECT_EQ(o.session.book.max_devices_per_domain, 64u);
+  EXPECT_EQ(o.session.book.max_writers_per_participant, 7u);
+  EXPECT_EQ(o.session.book.max_writers_per_domain, 6u);
+  EXPECT_EQ(o.session.describe_timeout, std::chrono::seconds(5));
+  EXPECT_FALSE(o.session.describe_eagerly);
+  EXPECT_EQ(o.session.describe_eagerly_in, (std::set<int>{0, 5}));
+  EXPECT_EQ(o.interfaces.include, std::vector<std::string>{"eth1"});
+  EXPECT_EQ(o.interfaces.exclude, std::vector<std::string>{"eth9"});
+  EXPECT_EQ(o.api.unix_socket, "/tmp/s.sock");
+  EXPECT_EQ(o.api.http_host, "::1");
+  EXPECT_EQ(o.api.http_port, 9002);
+  EXPECT_TRUE(o.api.http_configured);
+  EXPECT_EQ(o.api.allowed_hosts, std::vector<std::string>{"a.example"});
+  EXPECT_EQ(o.api.max_connections, 64u);
+}
+
+TEST(DaemonOptions, InterfacesNamedByTheCycloneConfigurationAreNotFollowed) {
+  const std::string names = R"(<General><Interfaces><NetworkInterface name="eth0"/></Interfaces></General>)";
+  Config c;
+  EXPECT_FALSE(rsd::daemon_options(c, "").session.interfaces_from_cyclone_config);
+  // $CYCLONEDDS_URI counts while the configuration has no cyclonedds-config ...
+  EXPECT_TRUE(rsd::daemon_options(c, names).session.interfaces_from_cyclone_config);
+  // ... and the option, when set, is what Cyclone DDS is given instead.
+  c.cyclonedds_config = "<General/>";
+  EXPECT_FALSE(rsd::daemon_options(c, names).session.interfaces_from_cyclone_config);
+  c.cyclonedds_config = names;
+  EXPECT_TRUE(rsd::daemon_options(c, "").session.interfaces_from_cyclone_config);
 }
