@@ -25,14 +25,11 @@ def log(msg):
 
 
 def wait_until(pred, timeout, what, interval=0.02):
-    """pred()'s first truthy value; BenchError at the deadline (a wait, never a fixed sleep)."""
-    deadline = time.monotonic() + timeout
-    last = None
-    while time.monotonic() < deadline:
-        last = pred()
-        if last:
-            return last
-        time.sleep(interval)
+    """pred()'s first truthy value; BenchError at the deadline (a wait, never a fixed sleep):
+    the suite's one wait helper, failing as the bench fails instead of as a test."""
+    last = conftest.wait_for(pred, timeout, interval, what, fail=False)
+    if last:
+        return last
     raise BenchError(f"timed out after {timeout}s waiting for {what} (last: {last!r})")
 
 
