@@ -8,7 +8,7 @@ import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout", "idle",
-            "open"]
+            "open", "scale10k"]
 
 
 def test_bench_run_smoke(tmp_path):
@@ -39,6 +39,10 @@ def test_bench_run_smoke(tmp_path):
     assert s["fanout"]["connected"] > 0
     for path in ("query-devices", "devices-changed", "librealsense", "realdds"):  # each beside its anchor
         assert s["open"]["paths"][path]["ready_ms"]["n"] >= 1 and s["open"]["paths"][path]["first_frame_ms"]["n"] >= 1
+    big = s["scale10k"]  # the 10,000-camera row, small: every camera listed, memory split, reads, fan-out
+    assert big["devices"] > 0 and big["floor_devices"] == big["domains"], big  # the floor: a camera a domain
+    assert big["memory_per_device_bytes"]["cyclone"] > 0 and big["list_all"]["requests"] > 0
+    assert big["fanout"]["connected"] == big["fanout"]["watchers"]
     assert data["table"]
     md = (tmp_path / "latest.md").read_text()
     assert md.startswith("# bench/run") and "| comparison |" in md
