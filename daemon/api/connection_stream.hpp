@@ -16,39 +16,39 @@ namespace rsd::api {
 
 class ConnectionStream final : public httplib::Stream {
  public:
-  explicit ConnectionStream(Connection& c) : c_(c) {}
+  explicit ConnectionStream(Connection& c) : c_(c), in_(c.http.in()), o_(c.http.out()) {}
   std::size_t consumed() const { return pos_; }
 
-  bool is_readable() const override { return pos_ < c_.in.size(); }
-  bool is_writable() const override { return !c_.broken; }
+  bool is_readable() const override { return pos_ < in_.size(); }
+  bool is_writable() const override { return !o_.broken; }
   ssize_t read(char* ptr, size_t size) override {
-    if (pos_ >= c_.in.size()) return -1;  // all a request can have arrived already
-    const auto n = std::min(size, c_.in.size() - pos_);
-    std::memcpy(ptr, c_.in.data() + pos_, n);
+    if (pos_ >= in_.size()) return -1;  // all a request can have arrived already
+    const auto n = std::min(size, in_.size() - pos_);
+    std::memcpy(ptr, in_.data() + pos_, n);
     pos_ += n;
     return static_cast<ssize_t>(n);
   }
   ssize_t write(const char* ptr, size_t size) override {
-    if (c_.broken) return -1;
+    if (o_.broken) return -1;
     // A shared body being written (write_shared): from its memfd, without a copy.
-    if (const auto* ctx = RequestContext::current(); ctx && ctx->body && ctx->body->fd() >= 0 && !c_.file &&
+    if (const auto* ctx = RequestContext::current(); ctx && ctx->body && ctx->body->fd() >= 0 && !o_.file &&
         ptr == ctx->body->bytes().data() + ctx->body_offset) {
-      c_.file = ctx->body;
-      c_.file_offset = ctx->body_offset;
-      c_.file_left = size;
-      if (!send_pending(c_, Clock::now())) return -1;
+      o_.file = ctx->body;
+      o_.file_offset = ctx->body_offset;
+      o_.file_left = size;
+      if (!send_pending(c_)) return -1;
       return static_cast<ssize_t>(size);
     }
     // Nothing may follow a body still going out of its memfd (it would overtake it);
     // httplib writes nothing after a sized body, so this would be a bug: close.
-    if (c_.file_left > 0) return -1;
+    if (o_.file_left > 0) return -1;
     if (size < kDirectWrite) {
-      c_.out.append(ptr, size);
+      o_.out.append(ptr, size);
       return static_cast<ssize_t>(size);
     }
     // Headers still buffered and this body in one system call; what the socket
     // does not take now is kept for the loop.
-    iovec iov[2] = {{c_.out.data() + c_.out_pos, c_.out_pending()}, {const_cast<char*>(ptr), size}};
+    iovec iov[2] = {{o_.out.data() + o_.out_pos, o_.out_pending()}, {const_cast<char*>(ptr), size}};
     msghdr msg{};
     msg.msg_iov = iov;
     msg.msg_iovlen = 2;
@@ -56,18 +56,18 @@ class ConnectionStream final : public httplib::Stream {
     do n = ::sendmsg(c_.fd, &msg, MSG_NOSIGNAL | MSG_DONTWAIT);
     while (n < 0 && errno == EINTR);
     if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK) {
-      c_.broken = true;
+      o_.broken = true;
       return -1;
     }
     std::size_t sent = n > 0 ? static_cast<std::size_t>(n) : 0;
-    const auto from_out = std::min(sent, c_.out_pending());
-    c_.out_pos += from_out;
+    const auto from_out = std::min(sent, o_.out_pending());
+    o_.out_pos += from_out;
     sent -= from_out;
-    if (c_.out_pending() == 0) {
-      c_.out.clear();
-      c_.out_pos = 0;
+    if (o_.out_pending() == 0) {
+      o_.out.clear();
+      o_.out_pos = 0;
     }
-    c_.out.append(ptr + sent, size - sent);
+    o_.out.append(ptr + sent, size - sent);
     return static_cast<ssize_t>(size);
   }
   void get_remote_ip_and_port(std::string& ip, int& port) const override { address(false, ip, port); }
@@ -100,6 +100,8 @@ class ConnectionStream final : public httplib::Stream {
   }
 
   Connection& c_;
+  const std::string& in_;
+  Outbox& o_;
   std::size_t pos_ = 0;
 };
 

@@ -114,7 +114,7 @@ struct LoopOptions {
 };
 
 struct LoopListener {
-  int fd = -1;  // bound and listening; the loop makes it non-blocking, never closes it
+  int fd = -1;  // bound and listening (or -1: see adopt); the loop makes it non-blocking, never closes it
   RequestServer* server = nullptr;
   bool http = false;
   std::string name;
@@ -139,6 +139,10 @@ class ServerLoop {
   // Throws (a listener the kernel will not watch, no epoll) and is then not
   // started: nothing is left running.
   void start(std::vector<LoopListener> listeners);
+  // A connected socket accepted elsewhere, served as if accepted on
+  // listeners[listener] (the unit tests give it one end of a socketpair; a
+  // listener whose fd is -1 is only a name for such connections). Takes `fd`.
+  void adopt(int fd, std::size_t listener);
   // From any thread: the table changed; streams poll their feeds.
   void notify_change();
   // Stops accepting, answers requests that have fully arrived, ends streams with
