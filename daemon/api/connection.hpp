@@ -1,6 +1,6 @@
 // A connection of the API's event loops as its three users see it: the reactor
 // (reactor.hpp), the send path (send_path.cpp) and httplib's stream over it
-// (connection_stream.cpp); its decisions are its HttpConnection's. Internal to
+// (httplib_seam.cpp); its decisions are its HttpConnection's. Internal to
 // daemon/api.
 #pragma once
 
@@ -66,7 +66,7 @@ struct Connection : Pollable {
 bool send_pending(Connection& c);
 
 // httplib's request context of the request being served on this thread (set by
-// the reactor around httplib's processing; connection_stream.cpp).
+// the reactor around httplib's processing; httplib_seam.cpp).
 void set_request_context(RequestContext* context);
 
 }  // namespace rsd::api

@@ -27,7 +27,7 @@ struct ServerLoop::Impl {
   ConnectionOptions connection;  // what each connection's HttpConnection reads, from `options`
   std::vector<LoopListener> listeners;
   std::vector<std::unique_ptr<Reactor>> reactors;
-  std::unique_ptr<httplib::ThreadPool> pool;
+  std::unique_ptr<BlockingPool> pool;
   std::mutex lifecycle;
   bool started = false;
 

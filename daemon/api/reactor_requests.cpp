@@ -3,7 +3,6 @@
 // streams are pumped, and the sweep ticks the deadlines (reactor.hpp).
 #include "api/reactor.hpp"
 
-#include "api/connection_stream.hpp"
 #include "log/log.hpp"
 
 #include <algorithm>

@@ -32,7 +32,7 @@ void ServerLoop::start(std::vector<LoopListener> listeners) {
       setrlimit(RLIMIT_NOFILE, &rl);
     }
   }
-  impl_->pool = std::make_unique<httplib::ThreadPool>(static_cast<std::size_t>(std::max(1, o.blocking_threads)));
+  impl_->pool = std::make_unique<BlockingPool>(static_cast<std::size_t>(std::max(1, o.blocking_threads)));
   try {
     make_reactors();
   } catch (...) {
