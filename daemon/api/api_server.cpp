@@ -139,45 +139,6 @@ void ApiServer::Impl::configure(RequestServer& svr, bool http) {
   });
 }
 
-namespace {
-
-
-// A request held in memory and its answer collected: the offline form of the loop's
-// ConnectionStream.
-class MemoryStream final : public httplib::Stream {
- public:
-  explicit MemoryStream(std::string_view in) : in_(in) {}
-  std::string out;
-  bool is_readable() const override { return pos_ < in_.size(); }
-  bool is_writable() const override { return true; }
-  ssize_t read(char* ptr, size_t size) override {
-    if (pos_ >= in_.size()) return -1;
-    const auto n = std::min(size, in_.size() - pos_);
-    std::memcpy(ptr, in_.data() + pos_, n);
-    pos_ += n;
-    return static_cast<ssize_t>(n);
-  }
-  ssize_t write(const char* ptr, size_t size) override {
-    out.append(ptr, size);
-    return static_cast<ssize_t>(size);
-  }
-  void get_remote_ip_and_port(std::string& ip, int& port) const override {
-    ip = "127.0.0.1";
-    port = 40000;
-  }
-  void get_local_ip_and_port(std::string& ip, int& port) const override {
-    ip = "127.0.0.1";
-    port = 8035;
-  }
-  socket_t socket() const override { return -1; }
-
- private:
-  std::string_view in_;
-  std::size_t pos_ = 0;
-};
-
-}  // namespace
-
 void ApiServer::Impl::start(const ApiOptions& opts) {
   std::lock_guard lock(lifecycle);
   if (started) throw std::runtime_error("API server already started");
@@ -246,11 +207,7 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
     // methods), and made here, on one thread, they are made before any loop runs
     // (which also spares ThreadSanitizer a race it cannot see the guard of).
     for (auto* server : {unix_server.get(), http_server.get()})
-      if (server) {
-        MemoryStream warmup("GET /healthz HTTP/1.1\r\nHost: localhost\r\n\r\n");
-        bool closed = false;
-        server->serve(warmup, true, closed);
-      }
+      if (server) serve_in_memory(*server, "GET /healthz HTTP/1.1\r\nHost: localhost\r\n\r\n");
     server_loop = std::make_unique<ServerLoop>(lo);
     loop = server_loop.get();
     server_loop->start(listeners);
@@ -317,10 +274,7 @@ std::string ApiServer::answer(std::string_view request, bool http) {
     server = std::make_unique<RequestServer>(0);
     impl_->configure(*server, http);
   }
-  MemoryStream stream(request);
-  bool closed = false;
-  server->serve(stream, false, closed);
-  return std::move(stream.out);
+  return serve_in_memory(*server, request);
 }
 
 }  // namespace rsd::api

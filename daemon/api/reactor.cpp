@@ -24,13 +24,13 @@ void Reactor::run() {
     if (stop_begun) {
       sweep(now);  // the connections given kFirstRequestWait
       const bool parked = std::any_of(conns.begin(), conns.end(),
-                                      [](const auto& kv) { return kv.second->state == ConnState::parked; });
+                                      [](const auto& kv) { return kv.second->http.state() == HttpConnection::State::parked; });
       const bool over = now.time_since_epoch().count() >= loop.stop_deadline.load();
       if ((conns.empty() || (over && !parked)) && close_handed()) break;
       if (over) {  // what is left (but for parked requests) is cut
         std::vector<Connection*> cut;
         for (auto& [p, c] : conns)
-          if (c->state != ConnState::parked) cut.push_back(p);
+          if (c->http.state() != HttpConnection::State::parked) cut.push_back(p);
         for (auto* c : cut) close_connection(*c);
       }
     }
@@ -58,7 +58,7 @@ void Reactor::run() {
             // pump() may close (and so erase) a connection: not while iterating.
             std::vector<Connection*> streams;
             for (auto& [key, c] : conns)
-              if (c->state == ConnState::streaming) streams.push_back(key);
+              if (c->http.state() == HttpConnection::State::streaming) streams.push_back(key);
             for (auto* c : streams) pump(*c, now);
           }
           break;
@@ -84,38 +84,10 @@ void Reactor::begin_stop(Clock::time_point now) {
   std::vector<Connection*> all;
   for (auto& [p, _] : conns) all.push_back(p);
   for (auto* c : all) {
-    switch (c->state) {
-      case ConnState::streaming:
-        // The last chunk: clients see an orderly end, not a reset.
-        c->out += "0\r\n\r\n";
-        c->close_after_write = true;
-        c->state = ConnState::writing;
-        if (!send_pending(*c, now) || c->pending() == 0) close_connection(*c);
-        else set_interest(*c, EPOLLOUT);
-        break;
-      case ConnState::reading: {
-        // Every connection accepted is answered: a request already in, or on its
-        // way (accepted, its request not read yet), gets its answer within the
-        // grace. Only an idle keep-alive connection is closed at once, as HTTP
-        // lets a server do; its client retries on a new connection, which waits
-        // in the listener's queue (systemd's, under socket activation) for the
-        // next daemon. Closing the fresh ones too cut about 1 in 200 requests
-        // under restarts (test_restarts_under_load_fail_no_request); they have
-        // kFirstRequestWait for it, so a silent one does not hold the stop.
-        bool eof = false, error = false;
-        read_some(*c, eof, error);
-        c->close_after_write = true;
-        c->deadline = std::min(c->deadline, now + kFirstRequestWait);  // then swept: closed, or a 408
-        if (error || (c->in.empty() && (eof || c->served > 0))) close_connection(*c);
-        else if (!c->in.empty()) process_input(*c, eof, now);
-        break;
-      }
-      case ConnState::writing:
-        c->close_after_write = true;
-        break;
-      case ConnState::parked:
-        break;
-    }
+    // What a reading connection's client sent already counts: its request is answered.
+    if (c->http.state() == HttpConnection::State::reading) read_some(*c, now);
+    c->http.stop(now);
+    drive(*c, now);
   }
 }
 
@@ -150,38 +122,40 @@ void Reactor::accept_all(ListenerHandle& l, Clock::time_point now) {
     }
     ++loop.connections;
     accepting.unlock();
-    Reactor* target = this;
-    for (auto& r : loop.reactors)
-      if (r->owned.load() < target->owned.load()) target = r.get();
-    ++target->owned;
-    if (target == this) {
-      adopt(fd, *l.spec, now);
-      continue;
-    }
-    bool handed_over = false;
-    {
-      std::lock_guard lock(target->handed_mutex);
-      if (!target->handed_closed) {
-        target->handed.emplace_back(fd, l.spec);
-        handed_over = true;
-      }
-    }
-    if (handed_over) {
-      target->wake();
-      continue;
-    }
-    --target->owned;  // that loop has ended (stopping): this one answers it
-    ++owned;
-    adopt(fd, *l.spec, now);
+    loop.hand_out(fd, *l.spec, this, now);
   }
+}
+
+void ServerLoop::Impl::hand_out(int fd, const LoopListener& listener, Reactor* self, Clock::time_point now) {
+  Reactor* target = self ? self : reactors.front().get();
+  for (auto& r : reactors)
+    if (r->owned.load() < target->owned.load()) target = r.get();
+  ++target->owned;
+  if (target == self) return self->adopt(fd, listener, now);
+  if (target->give(fd, listener)) return;
+  --target->owned;
+  if (self) {  // that loop has ended (stopping): this one answers it
+    ++self->owned;
+    return self->adopt(fd, listener, now);
+  }
+  ::close(fd);  // every loop has ended
+  --connections;
+}
+
+bool Reactor::give(int fd, const LoopListener& listener) {
+  {
+    std::lock_guard lock(handed_mutex);
+    if (handed_closed) return false;
+    handed.emplace_back(fd, &listener);
+  }
+  wake();
+  return true;
 }
 
 void Reactor::adopt(int fd, const LoopListener& listener, Clock::time_point now) {
   // Accepted by a loop not yet stopping, handed to this one: served all the same
   // (its client has no other daemon to ask), then closed.
-  auto conn = std::make_unique<Connection>(fd, listener);
-  conn->close_after_write = stop_begun;
-  conn->deadline = now + loop.options.client_timeout;
+  auto conn = std::make_unique<Connection>(fd, listener, loop.connection, now, stop_begun);
   conn->interest = EPOLLIN | EPOLLRDHUP;
   epoll_event ev{};
   ev.events = conn->interest;
@@ -205,7 +179,7 @@ void Reactor::take_handed(Clock::time_point now) {
   for (auto& [fd, listener] : mine) adopt(fd, *listener, now);
 }
 
-void Reactor::read_some(Connection& c, bool& eof, bool& error) {
+void Reactor::read_some(Connection& c, Clock::time_point now) {
   // Enough for the largest request the limits allow, and a little: beyond it the
   // scan has its verdict and the rest need not be read.
   const auto cap = loop.options.head.max_head + loop.options.head.max_body + kReadChunk;
@@ -213,21 +187,16 @@ void Reactor::read_some(Connection& c, bool& eof, bool& error) {
   for (;;) {
     const ssize_t n = ::recv(c.fd, buf, sizeof buf, MSG_DONTWAIT);
     if (n > 0) {
-      if (c.state == ConnState::streaming) continue;  // a stream's client has nothing to say
-      if (c.in.empty()) c.deadline = Clock::now() + loop.options.client_timeout;  // a request begins
-      c.in.append(buf, static_cast<std::size_t>(n));
+      c.http.bytes(std::string_view(buf, static_cast<std::size_t>(n)), now);
       // Less than asked for: the socket is drained for now, and the level-triggered
       // epoll says when more comes. Asking again only to hear EAGAIN was a second
       // system call for every request (nginx stops at a short read too).
-      if (c.in.size() >= cap || static_cast<std::size_t>(n) < sizeof buf) return;
+      if (c.http.in().size() >= cap || static_cast<std::size_t>(n) < sizeof buf) return;
       continue;
     }
-    if (n == 0) {
-      eof = true;
-      return;
-    }
+    if (n == 0) return c.http.eof();
     if (errno == EINTR) continue;
-    if (errno != EAGAIN && errno != EWOULDBLOCK) error = true;
+    if (errno != EAGAIN && errno != EWOULDBLOCK) c.http.error();
     return;
   }
 }

@@ -1,7 +1,8 @@
 // The API's event loops: ServerLoop's shared state (Impl) and one Reactor per
-// loop thread, with its epoll, its connections and their state machine
-// (reactor.cpp: accepting, reading, stopping; reactor_requests.cpp: serving,
-// parking on the blocking pool, streaming, timeouts). Internal to daemon/api.
+// loop thread, with its epoll and its connections. The reactor does the I/O and
+// feeds each connection's HttpConnection, which decides (reactor.cpp: accepting,
+// reading, stopping; reactor_requests.cpp: acting on the decisions: serving,
+// parking on the blocking pool, streaming, ticks). Internal to daemon/api.
 #pragma once
 
 #include "api/connection.hpp"
@@ -23,9 +24,10 @@ struct Reactor;
 
 struct ServerLoop::Impl {
   LoopOptions options;
+  ConnectionOptions connection;  // what each connection's HttpConnection reads, from `options`
   std::vector<LoopListener> listeners;
   std::vector<std::unique_ptr<Reactor>> reactors;
-  std::unique_ptr<httplib::ThreadPool> pool;
+  std::unique_ptr<BlockingPool> pool;
   std::mutex lifecycle;
   bool started = false;
 
@@ -43,7 +45,16 @@ struct ServerLoop::Impl {
   std::atomic<std::uint64_t> streams_dropped{0};
   std::atomic<std::uint64_t> rejected{0};
 
-  explicit Impl(LoopOptions o) : options(std::move(o)) {}
+  explicit Impl(LoopOptions o) : options(std::move(o)) {
+    connection.head = options.head;
+    connection.client_timeout = options.client_timeout;
+    connection.idle_timeout = options.idle_timeout;
+    connection.stream_buffer_limit = options.stream_buffer_limit;
+    connection.blocking = options.blocking;
+  }
+  // Gives `fd`, accepted for `listener` and counted in `connections`, to the loop
+  // with the fewest; `self` (the accepting loop, or none) takes it when that one has ended.
+  void hand_out(int fd, const LoopListener& listener, Reactor* self, Clock::time_point now);
 };
 
 // One event loop: its own epoll, the connections it accepted, one thread.
@@ -112,15 +123,17 @@ struct Reactor {
   void accept_all(ListenerHandle& l, Clock::time_point now);
   // Takes a connection accepted for this loop (counted in `owned` already).
   void adopt(int fd, const LoopListener& listener, Clock::time_point now);
+  // From another thread: a connection for this loop (counted in `owned` already).
+  // false: this loop has ended.
+  bool give(int fd, const LoopListener& listener);
   void take_handed(Clock::time_point now);
   void on_connection(Connection& c, std::uint32_t events, Clock::time_point now);
-  // Reads what the socket has. false: end of file or an error (with `eof` set).
-  void read_some(Connection& c, bool& eof, bool& error);
-  void process_input(Connection& c, bool eof, Clock::time_point now);
-  void reject(Connection& c, int status, const std::string& message, Clock::time_point now);
-  void serve(Connection& c) const;
-  bool after_serve(Connection& c, Clock::time_point now);
-  void park(Connection& c, Clock::time_point now);
+  // Reads what the socket has into the connection's machine.
+  void read_some(Connection& c, Clock::time_point now);
+  // Does what the connection's machine asks until it waits; false: it was closed.
+  bool drive(Connection& c, Clock::time_point now);
+  HttpConnection::Served serve(Connection& c) const;
+  bool park(Connection& c);
   void take_returned(Clock::time_point now);
   void pump(Connection& c, Clock::time_point now);
   void sweep(Clock::time_point now);

@@ -84,47 +84,45 @@ class SplicePipe {
 
 }  // namespace
 
-bool send_pending(Connection& c, Clock::time_point now) {
-  while (c.pending() > 0) {
+bool send_pending(Connection& c) {
+  Outbox& o = c.http.out();
+  while (o.pending() > 0) {
     ssize_t n;
     SplicePipe* pipe = nullptr;
-    if (!c.listener->http && c.file_left > 0 && c.out_pending() > 0 && c.out_pending() <= SplicePipe::kMaxHead)
+    if (!c.listener->http && o.file_left > 0 && o.out_pending() > 0 && o.out_pending() <= SplicePipe::kMaxHead)
       pipe = SplicePipe::for_this_thread();
     if (pipe) {
-      n = pipe->send(c.fd, std::string_view(c.out).substr(c.out_pos), c.file->fd(),
-                     static_cast<off_t>(c.file_offset), c.file_left);
+      n = pipe->send(c.fd, std::string_view(o.out).substr(o.out_pos), o.file->fd(),
+                     static_cast<off_t>(o.file_offset), o.file_left);
       if (n > 0) {
         auto sent = static_cast<std::size_t>(n);
-        const auto from_out = std::min(sent, c.out_pending());
-        c.out_pos += from_out;
+        const auto from_out = std::min(sent, o.out_pending());
+        o.out_pos += from_out;
         sent -= from_out;
-        c.file_offset += sent;
-        c.file_left -= sent;
+        o.file_offset += sent;
+        o.file_left -= sent;
       }
-    } else if (c.out_pending() > 0) {
-      const int more = c.file_left > 0 ? MSG_MORE : 0;  // the body follows at once
-      n = ::send(c.fd, c.out.data() + c.out_pos, c.out_pending(), MSG_NOSIGNAL | MSG_DONTWAIT | more);
-      if (n > 0) c.out_pos += static_cast<std::size_t>(n);
+    } else if (o.out_pending() > 0) {
+      const int more = o.file_left > 0 ? MSG_MORE : 0;  // the body follows at once
+      n = ::send(c.fd, o.out.data() + o.out_pos, o.out_pending(), MSG_NOSIGNAL | MSG_DONTWAIT | more);
+      if (n > 0) o.out_pos += static_cast<std::size_t>(n);
     } else {  // the socket is non-blocking: sendfile takes what fits and says so
-      auto offset = static_cast<off_t>(c.file_offset);
-      n = ::sendfile(c.fd, c.file->fd(), &offset, c.file_left);
+      auto offset = static_cast<off_t>(o.file_offset);
+      n = ::sendfile(c.fd, o.file->fd(), &offset, o.file_left);
       if (n > 0) {
-        c.file_offset += static_cast<std::size_t>(n);
-        c.file_left -= static_cast<std::size_t>(n);
+        o.file_offset += static_cast<std::size_t>(n);
+        o.file_left -= static_cast<std::size_t>(n);
       }
     }
-    if (n > 0) {
-      c.last_progress = now;
-      continue;
-    }
+    if (n > 0) continue;
     if (n < 0 && errno == EINTR) continue;
     if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return true;
-    c.broken = true;
+    o.broken = true;
     return false;
   }
-  c.out.clear();
-  c.out_pos = 0;
-  c.file.reset();
+  o.out.clear();
+  o.out_pos = 0;
+  o.file.reset();
   return true;
 }
 

@@ -18,6 +18,7 @@ void ServerLoop::start(std::vector<LoopListener> listeners) {
   o.threads = std::max(1, o.threads);
   impl_->listeners = std::move(listeners);
   for (auto& l : impl_->listeners) {
+    if (l.fd < 0) continue;
     const int flags = fcntl(l.fd, F_GETFL);
     fcntl(l.fd, F_SETFL, flags | O_NONBLOCK);
   }
@@ -31,7 +32,7 @@ void ServerLoop::start(std::vector<LoopListener> listeners) {
       setrlimit(RLIMIT_NOFILE, &rl);
     }
   }
-  impl_->pool = std::make_unique<httplib::ThreadPool>(static_cast<std::size_t>(std::max(1, o.blocking_threads)));
+  impl_->pool = std::make_unique<BlockingPool>(static_cast<std::size_t>(std::max(1, o.blocking_threads)));
   try {
     make_reactors();
   } catch (...) {
@@ -58,6 +59,7 @@ void ServerLoop::make_reactors() {
     ev.data.ptr = &r->wake_handle;
     epoll_ctl(r->epfd, EPOLL_CTL_ADD, r->wake_fd, &ev);
     for (const auto& l : impl_->listeners) {
+      if (l.fd < 0) continue;
       auto h = std::make_unique<ListenerHandle>(l);
       // EXCLUSIVE: a new client wakes one loop, not all of them.
       epoll_event lev{};
@@ -69,6 +71,18 @@ void ServerLoop::make_reactors() {
     }
     impl_->reactors.push_back(std::move(r));
   }
+}
+
+void ServerLoop::adopt(int fd, std::size_t listener) {
+  std::lock_guard lock(impl_->lifecycle);
+  if (!impl_->started || listener >= impl_->listeners.size() || impl_->stopping.load()) {
+    ::close(fd);
+    return;
+  }
+  const int flags = fcntl(fd, F_GETFL);
+  fcntl(fd, F_SETFL, flags | O_NONBLOCK);
+  ++impl_->connections;
+  impl_->hand_out(fd, impl_->listeners[listener], nullptr, Clock::now());
 }
 
 void ServerLoop::notify_change() {

@@ -5,9 +5,8 @@
 // own server parks a worker per connection, and one per SSE stream).
 #pragma once
 
+#include "api/httplib_seam.hpp"
 #include "api/request_head.hpp"
-
-#include <httplib.h>
 
 #include <atomic>
 #include <chrono>
@@ -20,38 +19,6 @@
 namespace rsd::api {
 
 using Clock = std::chrono::steady_clock;
-
-// httplib's request parsing, routing and response writing, run on a request the
-// loop has already read. (process_request is protected: this is its one user.)
-class RequestServer : public httplib::Server {
- public:
-  // httplib stops writing a response body once it believes its server socket
-  // closed (svr_sock_ invalid); this server has none of its own, so it carries
-  // the listener's. httplib never uses it otherwise here (no listen(), no stop()).
-  explicit RequestServer(int listener_fd) { svr_sock_ = listener_fd; }
-  // false: the connection must close after what was written.
-  bool serve(httplib::Stream& stream, bool close_connection, bool& connection_closed) {
-    return serve_on(*this, stream, close_connection, connection_closed);
-  }
-
- private:
-  // cpp-httplib 0.11 (bookworm) asks the stream for the two addresses; later ones
-  // (0.18, trixie) take them as arguments. A template, so that only the form this
-  // httplib has is compiled.
-  template <typename Server>
-  static bool serve_on(Server& server, httplib::Stream& stream, bool close_connection, bool& connection_closed) {
-    if constexpr (requires { server.process_request(stream, close_connection, connection_closed, nullptr); }) {
-      return server.process_request(stream, close_connection, connection_closed, nullptr);
-    } else {
-      std::string remote_ip, local_ip;
-      int remote_port = 0, local_port = 0;
-      stream.get_remote_ip_and_port(remote_ip, remote_port);
-      stream.get_local_ip_and_port(local_ip, local_port);
-      return server.process_request(stream, remote_ip, remote_port, local_ip, local_port, close_connection,
-                                    connection_closed, nullptr);
-    }
-  }
-};
 
 // One SSE client's feed. The loop asks it for text on every table change and at
 // each sweep; the feed decides what to send (events, a resync, a keep-alive).
@@ -81,11 +48,6 @@ class SharedBody {
   int fd_ = -1;
 };
 
-// An httplib content provider's write of `body` from `offset`: from the memfd when
-// the loop serves the request, else a plain copy.
-bool write_shared(httplib::DataSink& sink, const std::shared_ptr<const SharedBody>& body, std::size_t offset,
-                  std::size_t length);
-
 // What a route handler knows of the request besides httplib's Request, and how it
 // turns its response into an event stream. Valid during the handler only.
 struct RequestContext {
@@ -114,7 +76,7 @@ struct LoopOptions {
 };
 
 struct LoopListener {
-  int fd = -1;  // bound and listening; the loop makes it non-blocking, never closes it
+  int fd = -1;  // bound and listening (or -1: see adopt); the loop makes it non-blocking, never closes it
   RequestServer* server = nullptr;
   bool http = false;
   std::string name;
@@ -139,6 +101,10 @@ class ServerLoop {
   // Throws (a listener the kernel will not watch, no epoll) and is then not
   // started: nothing is left running.
   void start(std::vector<LoopListener> listeners);
+  // A connected socket accepted elsewhere, served as if accepted on
+  // listeners[listener] (the unit tests give it one end of a socketpair; a
+  // listener whose fd is -1 is only a name for such connections). Takes `fd`.
+  void adopt(int fd, std::size_t listener);
   // From any thread: the table changed; streams poll their feeds.
   void notify_change();
   // Stops accepting, answers requests that have fully arrived, ends streams with

@@ -56,20 +56,22 @@ struct Pair {
 std::pair<std::string, int> send_all(const LoopListener& listener, const std::string& head,
                                      const std::shared_ptr<const SharedBody>& body) {
   Pair pair;
-  Connection c(pair.daemon, listener);
-  c.out = head;
-  c.file = body;
-  c.file_left = body->bytes().size();
+  const rsd::api::ConnectionOptions options;
+  Connection c(pair.daemon, listener, options, Clock::now(), false);
+  auto& o = c.http.out();
+  o.out = head;
+  o.file = body;
+  o.file_left = body->bytes().size();
   std::string got;
   int calls = 0;
-  while (c.pending() > 0 && calls < 100000) {
-    EXPECT_TRUE(rsd::api::send_pending(c, Clock::now()));
+  while (o.pending() > 0 && calls < 100000) {
+    EXPECT_TRUE(rsd::api::send_pending(c));
     ++calls;
     got += pair.read_available();
   }
   got += pair.read_available();
-  EXPECT_EQ(c.pending(), 0u);
-  EXPECT_FALSE(c.file);  // let go once all of it is out
+  EXPECT_EQ(o.pending(), 0u);
+  EXPECT_FALSE(o.file);  // let go once all of it is out
   return {got, calls};
 }
 
@@ -108,12 +110,13 @@ TEST(SendPending, AHeadAndItsBodyArriveWholeAndInOrderOnEitherPath) {
 TEST(SendPending, AClientGoneMarksTheConnectionBroken) {
   Pair pair;
   LoopListener listener;
-  Connection c(pair.daemon, listener);
-  c.out = pattern(64 * 1024);
+  const rsd::api::ConnectionOptions options;
+  Connection c(pair.daemon, listener, options, Clock::now(), false);
+  c.http.out().out = pattern(64 * 1024);
   ::close(pair.client);
   pair.client = -1;
-  EXPECT_FALSE(rsd::api::send_pending(c, Clock::now()));
-  EXPECT_TRUE(c.broken);
+  EXPECT_FALSE(rsd::api::send_pending(c));
+  EXPECT_TRUE(c.http.out().broken);
 }
 
 TEST(ServerLoop, AStartThatFailsLeavesNothingRunning) {
