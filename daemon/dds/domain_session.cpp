@@ -147,7 +147,9 @@ void DomainSession::start() {
 void DomainSession::stop() {
   fetcher_.set_participant(0);  // fetches end, their readers go before the participant
   delete_reader();
-  share_.stop();  // other hosts see this host's cameras go now, not at lease expiry
+  // Leaving for good, other hosts see this host's cameras go now (not at lease
+  // expiry); a rebuild hands them to the next participant's writer.
+  share_.stop(!rebuilding_);
   if (domain_ > 0) dds_delete(domain_);  // takes the participant, topic and builtin reader with it
   else if (participant_ > 0) dds_delete(participant_);
   domain_ = participant_ = topic_ = participant_reader_ = 0;
@@ -161,12 +163,12 @@ void DomainSession::stop() {
 void DomainSession::rebuild() {
   log::notice(log::domain_prefix(options_.domain) +
               "rebuilding the DDS participant; devices are kept until reconciled");
+  rebuilding_ = true;
   stop();
   {
     std::lock_guard lock(mutex_);
     ++rebuilds_;
   }
-  rebuilding_ = true;
   try {
     start();  // the reader follows after the settle time, then reconciliation
   } catch (...) {

@@ -37,22 +37,26 @@ void ShareBook::sample(Instance instance, const std::string& participant_guid,
       return;
     }
     if (known) {
-      if (auto p = per_participant_.find(stale->second.participant); p != per_participant_.end() && --p->second == 0)
-        per_participant_.erase(p);
+      release(per_participant_.find(stale->second.entry.participant));
+      it = instances_.emplace(instance, std::move(stale->second.entry)).first;
       stale_.erase(stale);
+      it->second.participant = participant_guid;
+      by_id_[cam.id] = instance;
+      ++per_participant_[participant_guid];
     }
-    if (auto other = by_id_.find(cam.id); other != by_id_.end()) {
-      // The key decides the id, so only a reader made anew meanwhile gets here.
-      drop(instances_.find(other->second), "replaced");
+    if (!known) {
+      if (auto other = by_id_.find(cam.id); other != by_id_.end()) {
+        // The key decides the id: only an instance handle Cyclone gave anew gets here.
+        drop(instances_.find(other->second), "replaced");
+      }
+      it = instances_.emplace(instance, Entry{cam.id, participant_guid, nlohmann::json()}).first;
+      by_id_[cam.id] = instance;
+      ++per_participant_[participant_guid];
+      log::info(log::domain_prefix(options_.domain) + "shared camera " + cam.id + " from " + participant_guid);
     }
-    it = instances_.emplace(instance, Entry{cam.id, participant_guid, nlohmann::json()}).first;
-    by_id_[cam.id] = instance;
-    ++per_participant_[participant_guid];
-    log::info(log::domain_prefix(options_.domain) + "shared camera " + cam.id + " from " + participant_guid);
   } else if (it->second.participant != participant_guid) {
     // Another writer of the same key (the sharer restarted before its old lease ran out).
-    if (auto p = per_participant_.find(it->second.participant); p != per_participant_.end() && --p->second == 0)
-      per_participant_.erase(p);
+    release(per_participant_.find(it->second.participant));
     ++per_participant_[participant_guid];
     it->second.participant = participant_guid;
   }
@@ -62,9 +66,22 @@ void ShareBook::sample(Instance instance, const std::string& participant_guid,
   }
 }
 
-void ShareBook::instance_gone(Instance instance) {
+void ShareBook::instance_gone(Instance instance, bool disposed, Clock::time_point now) {
   auto it = instances_.find(instance);
-  if (it != instances_.end()) drop(it, "gone");
+  if (it == instances_.end()) return;
+  if (disposed) {
+    drop(it, "unshared");
+    return;
+  }
+  log::debug([&] { return log::domain_prefix(options_.domain) + "shared camera " + it->second.id + " lost its writer"; });
+  by_id_.erase(it->second.id);
+  std::string id = it->second.id;
+  stale_.insert_or_assign(std::move(id), Stale{std::move(it->second), now + options_.orphan_grace});
+  instances_.erase(it);
+}
+
+void ShareBook::release(std::map<std::string, std::size_t>::iterator p) {
+  if (p != per_participant_.end() && --p->second == 0) per_participant_.erase(p);
 }
 
 void ShareBook::drop(std::map<Instance, Entry>::iterator it, const char* why) {
@@ -72,30 +89,33 @@ void ShareBook::drop(std::map<Instance, Entry>::iterator it, const char* why) {
   log::info(log::domain_prefix(options_.domain) + "shared camera " + it->second.id + " " + why);
   table_.remove(it->second.id);
   by_id_.erase(it->second.id);
-  if (auto p = per_participant_.find(it->second.participant); p != per_participant_.end() && --p->second == 0)
-    per_participant_.erase(p);
+  release(per_participant_.find(it->second.participant));
   instances_.erase(it);
 }
 
 void ShareBook::reader_made(Clock::time_point now) {
-  for (auto& [instance, e] : instances_) stale_.emplace(e.id, std::move(e));
+  for (auto& [instance, e] : instances_) {
+    std::string id = e.id;
+    stale_.insert_or_assign(std::move(id), Stale{std::move(e), now + options_.reconcile_grace});
+  }
   instances_.clear();
   by_id_.clear();
-  if (!stale_.empty()) reconcile_at_ = now + options_.reconcile_grace;
 }
 
 ShareBook::Clock::duration ShareBook::tick(Clock::time_point now) {
-  if (!reconcile_at_) return std::chrono::seconds(1);
-  if (now < *reconcile_at_) return *reconcile_at_ - now;
-  for (auto& [id, e] : stale_) {
-    log::info(log::domain_prefix(options_.domain) + "shared camera " + id + " not heard again");
-    table_.remove(id);
-    if (auto p = per_participant_.find(e.participant); p != per_participant_.end() && --p->second == 0)
-      per_participant_.erase(p);
+  Clock::duration next = std::chrono::seconds(1);
+  for (auto it = stale_.begin(); it != stale_.end();) {
+    if (now < it->second.until) {
+      next = std::min<Clock::duration>(next, it->second.until - now);
+      ++it;
+      continue;
+    }
+    log::info(log::domain_prefix(options_.domain) + "shared camera " + it->first + " not heard again");
+    table_.remove(it->first);
+    release(per_participant_.find(it->second.entry.participant));
+    it = stale_.erase(it);
   }
-  stale_.clear();
-  reconcile_at_.reset();
-  return std::chrono::seconds(1);
+  return next;
 }
 
 void ShareBook::forget_devices() {
@@ -105,7 +125,6 @@ void ShareBook::forget_devices() {
   by_id_.clear();
   stale_.clear();
   per_participant_.clear();
-  reconcile_at_.reset();
 }
 
 void ShareBook::fill(DomainStatus& status) const {

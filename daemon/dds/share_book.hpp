@@ -27,6 +27,11 @@ struct ShareBookOptions {
   // After a new reader (the participant made anew) the sharers' transient-local
   // samples arrive again at once; a camera not heard again by then is gone.
   std::chrono::milliseconds reconcile_grace{3000};
+  // A camera whose instance lost its writers without being disposed (the sharer's
+  // participant made anew after a network change or a lost server, or its lease
+  // expired) stays this long for a new writer to take it over: a sharer's refresh
+  // is no departure and arrival for every other host.
+  std::chrono::milliseconds orphan_grace{2000};
 };
 
 class ShareBook {
@@ -42,9 +47,10 @@ class ShareBook {
 
   // A sample of `instance` (alive) from a writer of `participant_guid`, parsed.
   void sample(Instance instance, const std::string& participant_guid, std::variant<SharedCamera, Rejected> parsed);
-  // The instance was disposed (unplugged, sharer stopped) or has no writer left
-  // (sharer gone, lease expired): its camera leaves the table.
-  void instance_gone(Instance instance);
+  // The instance was disposed (unplugged, sharer stopped): its camera leaves the
+  // table now. Or it has no writer left (sharer made anew, or gone: lease
+  // expired): it leaves after orphan_grace unless a writer takes it over.
+  void instance_gone(Instance instance, bool disposed, Clock::time_point now);
 
   // A new reader: instance handles start over. Cameras stay until reconcile_grace
   // passes without their instance being heard again.
@@ -66,6 +72,7 @@ class ShareBook {
     nlohmann::json doc;  // as last given to the table
   };
   void drop(std::map<Instance, Entry>::iterator it, const char* why);
+  void release(std::map<std::string, std::size_t>::iterator per_participant);
   void reject(const std::string& reason, const std::string& detail, const std::string& sender);
 
   SharedTable& table_;
@@ -74,8 +81,13 @@ class ShareBook {
   std::map<Instance, Entry> instances_;               // in the table
   std::map<std::string, Instance> by_id_;             // id -> its instance
   std::map<std::string, std::size_t> per_participant_;
-  std::map<std::string, Entry> stale_;                // by id: kept over a new reader, until heard again
-  std::optional<Clock::time_point> reconcile_at_;
+  // By id: kept over a new reader or a lost writer until heard again, or until
+  // their deadline.
+  struct Stale {
+    Entry entry;
+    Clock::time_point until;
+  };
+  std::map<std::string, Stale> stale_;
   std::map<std::string, std::uint64_t> rejected_;
 };
 

@@ -61,7 +61,7 @@ ShareSession::ShareSession(SharedTable& table, ShareOptions options)
   if (options_.host_name.size() > kMaxHostKey) options_.host_name.resize(kMaxHostKey);
 }
 
-ShareSession::~ShareSession() { stop(); }
+ShareSession::~ShareSession() { stop(true); }
 
 std::string ShareSession::start(dds_entity_t participant, const std::string& own_guid, Clock::time_point now) {
   {
@@ -79,7 +79,14 @@ std::string ShareSession::start(dds_entity_t participant, const std::string& own
     return why;
   }
   if (options_.share) {
-    writer_ = dds_create_writer(participant, topic_, qos, nullptr);
+    // Deleting the writer only unregisters: a participant made anew (a refresh)
+    // takes its cameras over without other hosts seeing them go. Leaving for good
+    // disposes them first (stop).
+    dds_qos_t* wqos = dds_create_qos();
+    dds_copy_qos(wqos, qos);
+    dds_qset_writer_data_lifecycle(wqos, false);
+    writer_ = dds_create_writer(participant, topic_, wqos, nullptr);
+    dds_delete_qos(wqos);
     if (writer_ < 0) {
       const std::string why = std::string("cannot share USB cameras: ") + dds_strretcode(writer_);
       writer_ = 0;
@@ -107,9 +114,11 @@ std::string ShareSession::start(dds_entity_t participant, const std::string& own
   return "";
 }
 
-void ShareSession::stop() {
-  // The writer first: deleting it unregisters and disposes every camera it
-  // announced, so the other hosts drop them now rather than at lease expiry.
+void ShareSession::stop(bool for_good) {
+  // The writer first. Leaving for good, every camera it announced is disposed, so
+  // other hosts drop them now rather than at lease expiry.
+  if (writer_ > 0 && for_good)
+    for (const auto& [camera, payload] : published_) dispose(camera);
   if (writer_ > 0) dds_delete(writer_);
   writer_ = 0;
   published_.clear();
@@ -228,14 +237,15 @@ void ShareSession::take_samples(dds_entity_t reader) {
       dds_instance_handle_t instance;
       std::string participant;
       std::optional<std::variant<SharedCamera, Rejected>> parsed;  // none: the camera is gone
+      bool disposed = false;
     };
     std::vector<Item> items;
     for (dds_return_t i = 0; i < n; ++i) {
       const auto& info = infos[static_cast<std::size_t>(i)];
       if (info.instance_state != DDS_IST_ALIVE) {
-        // Disposed (unplugged, the sharer stopped) or no writer left (its lease
-        // expired): the camera is gone, whether the sample carries data or not.
-        items.push_back({info.instance_handle, {}, std::nullopt});
+        // Disposed (unplugged, the sharer stopped): gone. No writer left (the
+        // sharer made anew, or its lease expired): gone unless a writer takes it over.
+        items.push_back({info.instance_handle, {}, std::nullopt, info.instance_state == DDS_IST_NOT_ALIVE_DISPOSED});
         continue;
       }
       if (!info.valid_data) continue;
@@ -243,15 +253,16 @@ void ShareSession::take_samples(dds_entity_t reader) {
       std::string participant = participant_of_writer(reader, info.publication_handle);
       auto parsed = parse_shared_usb(options_.book.domain, get(s->host), get(s->camera), s->version,
                                      std::span<const std::uint8_t>(s->data._buffer, s->data._length), participant);
-      items.push_back({info.instance_handle, std::move(participant), std::move(parsed)});
+      items.push_back({info.instance_handle, std::move(participant), std::move(parsed), false});
     }
     {
+      const auto now = Clock::now();
       std::lock_guard lock(mutex_);
       for (auto& item : items) {
         if (item.parsed)
           book_.sample(item.instance, item.participant, std::move(*item.parsed));
         else
-          book_.instance_gone(item.instance);
+          book_.instance_gone(item.instance, item.disposed, now);
       }
     }
     dds_return_loan(reader, samples.data(), n);

@@ -35,8 +35,9 @@ class ShareSession {
   // and the writer when sharing. Returns "" or why it could not (the domain's
   // device-info side carries on without sharing).
   std::string start(dds_entity_t participant, const std::string& own_guid, Clock::time_point now);
-  // Deletes the writer (other hosts see the cameras disposed) and the reader.
-  void stop();
+  // Deletes the writer and the reader. `for_good` (not a rebuild): this host's
+  // cameras are disposed first, so other hosts drop them at once.
+  void stop(bool for_good);
   // This host's cameras now (sighting id -> the USB source's document) and the
   // addresses it is reached at: written, changed or disposed to match. Main thread.
   void publish(const std::map<std::string, nlohmann::json>& cameras, const std::vector<std::string>& addresses);

@@ -106,10 +106,14 @@ TEST_F(Share, TheSameSerialFromTwoHostsIsTwoEntriesAndNeverMergesWithLocalUsb) {
 TEST_F(Share, DisposedOrWriterlessInstanceLeavesTheTable) {
   book.sample(1, "p-a", shared("rig-a", "1"));
   book.sample(2, "p-a", shared("rig-a", "2"));
-  book.instance_gone(1);
+  book.instance_gone(1, true, t0);
   EXPECT_EQ(ids(), (std::vector<std::string>{"usb-2@rig-a"}));
-  book.instance_gone(1);  // again: nothing
-  book.instance_gone(2);
+  book.instance_gone(1, true, t0);  // again: nothing
+  // No writer left (lease expired): gone once the grace passes without a new writer.
+  book.instance_gone(2, false, t0);
+  book.tick(t0 + 1s);
+  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-2@rig-a"}));
+  book.tick(t0 + 2s);
   EXPECT_TRUE(ids().empty());
 }
 
@@ -142,7 +146,7 @@ TEST_F(Share, CapsPerParticipantAndPerDomainAreCounted) {
   EXPECT_EQ(ids().size(), 5u);
   EXPECT_EQ(rejected("shared-domain-limit"), 1u);
   // Room again once one leaves.
-  book.instance_gone(1);
+  book.instance_gone(1, true, t0);
   book.sample(12, "p-b", shared("rig-b", "12", "p-b"));
   EXPECT_TRUE(table.find("usb-12@rig-b"));
 }
@@ -165,8 +169,19 @@ TEST_F(Share, ANewReaderKeepsCamerasHeardAgainAndDropsTheOthers) {
   EXPECT_EQ(ids().size(), 2u);
   book.tick(t0 + 3s);
   EXPECT_EQ(ids(), (std::vector<std::string>{"usb-1@rig-a"}));
-  book.instance_gone(7);
+  book.instance_gone(7, true, t0 + 3s);
   EXPECT_TRUE(ids().empty());
+}
+
+TEST_F(Share, ASharerMadeAnewTakesItsCamerasOverWithoutAnEvent) {
+  book.sample(1, "p-a", shared("rig-a", "1", "p-a"));
+  const auto g = table.generation();
+  book.instance_gone(1, false, t0);                      // its old participant's writer went
+  book.sample(9, "p-a2", shared("rig-a", "1", "p-a2"));  // the new one's wrote the same camera
+  book.tick(t0 + 5s);
+  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-1@rig-a"}));
+  EXPECT_EQ(table.generation(), g + 1);  // the host's participant GUID changed, nothing else
+  EXPECT_EQ((*table.find("usb-1@rig-a"))["host"]["participant-guid"], "p-a2");
 }
 
 TEST_F(Share, ForgetDevicesTakesEveryCameraOut) {
