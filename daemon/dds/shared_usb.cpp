@@ -74,11 +74,11 @@ std::optional<model::Device> camera_fields(const json& doc) {
 std::string shared_usb_id(std::string_view host, std::string_view camera) {
   static constexpr char kHex[] = "0123456789ABCDEF";
   std::string id(camera);
-  id += '@';
+  id += '.';
+  // The host's '.' is escaped too: the id's last '.' is where the host begins.
   for (const char ch : host) {
     const auto c = static_cast<unsigned char>(ch);
-    if ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
-        c == '.') {
+    if ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-') {
       id += ch;
     } else {
       id += '~';

@@ -29,7 +29,7 @@ inline constexpr std::size_t kMaxSharedText = 512;  // any one string of the dev
 
 // Another host's camera, as the table will hold it.
 struct SharedCamera {
-  std::string id;         // "<camera>@<host>": the table's id, unique per host and camera
+  std::string id;         // "<camera>.<host>": the table's id, unique per host and camera
   nlohmann::json device;  // source "remote-usb", the camera's fields, "host", "domain"
 };
 
@@ -45,8 +45,9 @@ std::variant<SharedCamera, Rejected> parse_shared_usb(int domain, std::string_vi
                                                       std::uint8_t version, std::span<const std::uint8_t> data,
                                                       const std::string& participant_guid);
 
-// "<camera>@<host>", the host's bytes outside [A-Za-z0-9._-] as "~XX" (so two
-// hosts never share an id and the id stays URL-safe).
+// "<camera>.<host>" (usb-123622270732.rig-pc-3), the host's bytes outside
+// [A-Za-z0-9_-] as "~XX": two hosts never share an id, the id stays URL-safe (the
+// API's id pattern), and its last '.' starts the host.
 std::string shared_usb_id(std::string_view host, std::string_view camera);
 
 }  // namespace rsd::dds

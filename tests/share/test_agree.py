@@ -3,7 +3,7 @@ sharing its USB cameras, hold the same cameras with the same fields within 1 s o
 every change: a plug, an unplug, a realdds camera started, a realdds camera killed.
 
 Each daemon lists its own USB camera as "usb" and the others' as "remote-usb"
-(`<camera>@<host>`); a network camera has the same id everywhere. So the lists are
+(`<camera>.<host>`); a network camera has the same id everywhere. So the lists are
 compared as cameras: (host, the camera's id on its host) or the DDS id, with every
 field that describes the camera (timestamps and the merge bookkeeping aside).
 """
@@ -30,7 +30,7 @@ def cameras(daemon, host):
             fields = {k: d[k] for k in CAMERA_FIELDS if k in d}
             fields["usb"] = {k: v for k, v in d["usb"].items() if k != "sysfs-path"}
         elif d["source"] == "remote-usb":
-            camera, _, _ = d["id"].partition("@")
+            camera, _, _ = d["id"].rpartition(".")
             key = ("usb", d["host"]["name"], camera)
             fields = {k: d[k] for k in CAMERA_FIELDS if k in d}
         else:

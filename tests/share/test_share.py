@@ -44,7 +44,7 @@ def test_a_plugged_camera_is_listed_on_other_hosts_until_unplugged(site):
 
     t0 = time.monotonic()
     path = s.beds[0].plug("d455-usb3")
-    wanted = f"usb-{D455}@host0"
+    wanted = f"usb-{D455}.host0"
     wait_for(lambda: has(b, wanted), timeout=10, what="host1 lists host0's camera")
     note_time("plug-to-listed-other-host", time.monotonic() - t0)
     wait_for(lambda: has(c, wanted), timeout=10, what="host2 lists host0's camera")
@@ -80,16 +80,16 @@ def test_stop_kill_and_a_daemon_started_last(site):
     s.beds[1].plug("d455-usb3")
     s.beds[1].plug("d435-usb2")
     a, b = s.start(0), s.start(1)
-    on_a, on_b = f"usb-{D455}@host0", f"usb-{D455}@host1"
+    on_a, on_b = f"usb-{D455}.host0", f"usb-{D455}.host1"
     wait_for(lambda: has(a, on_b) and has(b, on_a), timeout=10, what="host0 and host1 list each other's cameras")
-    assert sorted(listed(a)) == sorted([f"usb-{D455}", on_b, f"usb-{D435}@host1"])
+    assert sorted(listed(a)) == sorted([f"usb-{D455}", on_b, f"usb-{D435}.host1"])
     assert listed(a)[f"usb-{D455}"]["sources"] == ["usb"]  # the local one stays as it was
 
     # A daemon started last lists every shared camera as soon as it is ready.
     c = s.start(2, wait=False)
     c.wait_ready()
     ready = time.monotonic()
-    every = sorted([on_a, on_b, f"usb-{D435}@host1"])
+    every = sorted([on_a, on_b, f"usb-{D435}.host1"])
     wait_for(lambda: sorted(listed(c)) == every, timeout=10, what="the late daemon lists all shared cameras")
     note_time("ready-to-all-listed-late-daemon", time.monotonic() - ready)
     assert time.monotonic() - ready < 2.0

@@ -77,7 +77,7 @@ struct Share : ::testing::Test {
 
 TEST_F(Share, AnotherHostsCameraIsListedAsRemoteUsbWithItsHost) {
   book.sample(1, "p-a", shared("rig-a", "123622270732"));
-  const auto dev = table.find("usb-123622270732@rig-a");
+  const auto dev = table.find("usb-123622270732.rig-a");
   ASSERT_TRUE(dev);
   EXPECT_EQ((*dev)["source"], "remote-usb");
   EXPECT_EQ((*dev)["sources"], json::array({"remote-usb"}));
@@ -90,7 +90,7 @@ TEST_F(Share, AnotherHostsCameraIsListedAsRemoteUsbWithItsHost) {
   EXPECT_EQ((*dev)["usb"]["port-path"], "2-1");
   // A path on the other host's file system says nothing here.
   EXPECT_FALSE((*dev)["usb"].contains("sysfs-path"));
-  const auto typed = table.find_entry("usb-123622270732@rig-a");
+  const auto typed = table.find_entry("usb-123622270732.rig-a");
   ASSERT_TRUE(typed && typed->device.host);
   EXPECT_EQ(typed->device.source, rsd::model::Source::remote_usb);
 }
@@ -99,7 +99,7 @@ TEST_F(Share, TheSameSerialFromTwoHostsIsTwoEntriesAndNeverMergesWithLocalUsb) {
   table.upsert("usb-123", local_camera("123"));  // this host's own camera of that serial
   book.sample(1, "p-a", shared("rig-a", "123", "p-a"));
   book.sample(2, "p-b", shared("rig-b", "123", "p-b"));
-  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-123", "usb-123@rig-a", "usb-123@rig-b"}));
+  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-123", "usb-123.rig-a", "usb-123.rig-b"}));
   EXPECT_EQ((*table.find("usb-123"))["sources"], json::array({"usb"}));
 }
 
@@ -107,12 +107,12 @@ TEST_F(Share, DisposedOrWriterlessInstanceLeavesTheTable) {
   book.sample(1, "p-a", shared("rig-a", "1"));
   book.sample(2, "p-a", shared("rig-a", "2"));
   book.instance_gone(1, true, t0);
-  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-2@rig-a"}));
+  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-2.rig-a"}));
   book.instance_gone(1, true, t0);  // again: nothing
   // No writer left (lease expired): gone once the grace passes without a new writer.
   book.instance_gone(2, false, t0);
   book.tick(t0 + 1s);
-  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-2@rig-a"}));
+  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-2.rig-a"}));
   book.tick(t0 + 2s);
   EXPECT_TRUE(ids().empty());
 }
@@ -133,7 +133,7 @@ TEST_F(Share, ARepeatedSampleIsNoEventAndAChangeIsOne) {
   const std::string payload = rsd::dds::shared_usb_payload("rig-a", {"10.0.0.1"}, changed);
   book.sample(1, "p-a", rsd::dds::parse_shared_usb(7, "rig-a", "usb-1", 1, bytes(payload), "p-a"));
   EXPECT_GT(table.generation(), g);
-  EXPECT_EQ((*table.find("usb-1@rig-a"))["usb"]["port-path"], "2-2");
+  EXPECT_EQ((*table.find("usb-1.rig-a"))["usb"]["port-path"], "2-2");
 }
 
 TEST_F(Share, CapsPerParticipantAndPerDomainAreCounted) {
@@ -148,14 +148,14 @@ TEST_F(Share, CapsPerParticipantAndPerDomainAreCounted) {
   // Room again once one leaves.
   book.instance_gone(1, true, t0);
   book.sample(12, "p-b", shared("rig-b", "12", "p-b"));
-  EXPECT_TRUE(table.find("usb-12@rig-b"));
+  EXPECT_TRUE(table.find("usb-12.rig-b"));
 }
 
 TEST_F(Share, ABadSampleIsCountedAndKeepsTheLastGoodDocument) {
   book.sample(1, "p-a", shared("rig-a", "1"));
   book.sample(1, "p-a", rsd::dds::parse_shared_usb(7, "rig-a", "usb-1", 1, bytes("{not json"), "p-a"));
   EXPECT_EQ(rejected("shared-not-json"), 1u);
-  EXPECT_TRUE(table.find("usb-1@rig-a"));
+  EXPECT_TRUE(table.find("usb-1.rig-a"));
 }
 
 TEST_F(Share, ANewReaderKeepsCamerasHeardAgainAndDropsTheOthers) {
@@ -168,7 +168,7 @@ TEST_F(Share, ANewReaderKeepsCamerasHeardAgainAndDropsTheOthers) {
   book.tick(t0 + 1s);
   EXPECT_EQ(ids().size(), 2u);
   book.tick(t0 + 3s);
-  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-1@rig-a"}));
+  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-1.rig-a"}));
   book.instance_gone(7, true, t0 + 3s);
   EXPECT_TRUE(ids().empty());
 }
@@ -179,9 +179,9 @@ TEST_F(Share, ASharerMadeAnewTakesItsCamerasOverWithoutAnEvent) {
   book.instance_gone(1, false, t0);                      // its old participant's writer went
   book.sample(9, "p-a2", shared("rig-a", "1", "p-a2"));  // the new one's wrote the same camera
   book.tick(t0 + 5s);
-  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-1@rig-a"}));
+  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-1.rig-a"}));
   EXPECT_EQ(table.generation(), g + 1);  // the host's participant GUID changed, nothing else
-  EXPECT_EQ((*table.find("usb-1@rig-a"))["host"]["participant-guid"], "p-a2");
+  EXPECT_EQ((*table.find("usb-1.rig-a"))["host"]["participant-guid"], "p-a2");
 }
 
 TEST_F(Share, ForgetDevicesTakesEveryCameraOut) {
@@ -226,13 +226,16 @@ TEST(SharedUsbWire, OnlyTheCamerasOwnFieldsAreKept) {
       "p");
   const auto* cam = std::get_if<rsd::dds::SharedCamera>(&v);
   ASSERT_TRUE(cam);
-  EXPECT_EQ(cam->id, "usb-9@h");
+  EXPECT_EQ(cam->id, "usb-9.h");
   EXPECT_EQ(cam->device, json::parse(R"({"source":"remote-usb","name":"x","recovery":false,"domain":3,)"
                                      R"("warnings":["w1"],"host":{"name":"h","addresses":[],"participant-guid":"p"}})"));
 }
 
 TEST(SharedUsbWire, IdsAreUrlSafeAndDistinctPerHost) {
-  EXPECT_EQ(rsd::dds::shared_usb_id("rig-a.lab", "usb-1"), "usb-1@rig-a.lab");
-  EXPECT_EQ(rsd::dds::shared_usb_id("a b/c~", "usb-1"), "usb-1@a~20b~2Fc~7E");
+  EXPECT_EQ(rsd::dds::shared_usb_id("rig-a", "usb-1"), "usb-1.rig-a");
+  // The host's '.' escaped: the last '.' starts the host, so no two keys share an id.
+  EXPECT_EQ(rsd::dds::shared_usb_id("rig-a.lab", "usb-1.x"), "usb-1.x.rig-a~2Elab");
+  EXPECT_NE(rsd::dds::shared_usb_id("x.lab", "usb-1"), rsd::dds::shared_usb_id("lab", "usb-1.x"));
+  EXPECT_EQ(rsd::dds::shared_usb_id("a b/c~", "usb-1"), "usb-1.a~20b~2Fc~7E");
   EXPECT_NE(rsd::dds::shared_usb_id("a~20b", "usb-1"), rsd::dds::shared_usb_id("a b", "usb-1"));
 }
