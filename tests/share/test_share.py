@@ -20,6 +20,9 @@ from conftest import TESTS_DIR, JsonLinesProcess, wait_for
 from sharebed import D435, D455, note_time, site  # noqa: F401 (site: the fixture)
 from usbbed import in_umockdev
 
+sys.path.insert(0, os.path.join(TESTS_DIR, "integration"))
+from api_util import validate_response  # noqa: E402
+
 pytestmark = pytest.mark.skipif(not in_umockdev(), reason="run under umockdev-wrapper (ctest does)")
 
 
@@ -56,6 +59,10 @@ def test_a_plugged_camera_is_listed_on_other_hosts_until_unplugged(site):
     assert cam["serial"] == D455 and cam["name"] == "Intel RealSense D455"
     assert cam["usb"]["port-path"] and "sysfs-path" not in cam["usb"]
     assert cam["domain"] == s.domain
+    # The document is the spec's, and the source filter selects it.
+    validate_response("/v1/devices", 200, b.get_json("/v1/devices"))
+    assert [d["id"] for d in b.devices("?source=remote-usb")] == [wanted]
+    assert [d["id"] for d in b.devices("?source=usb")] == ["usb-" + D435]
     # host0 lists its camera once, as today's local USB camera: its own share is not echoed.
     own = listed(a)
     assert list(own) == [f"usb-{D455}"]
@@ -137,6 +144,7 @@ def test_a_malformed_or_flooding_sharer_is_capped_and_counted(site):
                 "shared-participant-limit": 36}
         wait_for(lambda: all(rejected().get(k) == v for k, v in want.items()), timeout=20,
                  what="every refusal counted")
+        validate_response("/v1/domains", 200, d.get_json("/v1/domains"))
         remote = [x for x in d.devices() if x["source"] == "remote-usb"]
         assert len(remote) == 64 and all(x["host"]["name"] == "evil" for x in remote)
         assert d.healthy()
