@@ -63,6 +63,9 @@ def test_a_plugged_camera_is_listed_on_other_hosts_until_unplugged(site):
     validate_response("/v1/devices", 200, b.get_json("/v1/devices"))
     assert [d["id"] for d in b.devices("?source=remote-usb")] == [wanted]
     assert [d["id"] for d in b.devices("?source=usb")] == ["usb-" + D435]
+    assert [d["id"] for d in b.devices("?host=HOST0")] == [wanted]  # the host's name, any case
+    assert [d["id"] for d in b.devices(f"?address={s.lan.ips[0]}")] == [wanted]
+    assert b.devices("?host=host2") == []
     # host0 lists its camera once, as today's local USB camera: its own share is not echoed.
     own = listed(a)
     assert list(own) == [f"usb-{D455}"]
