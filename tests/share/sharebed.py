@@ -48,6 +48,7 @@ def note_time(name, seconds):
     except (OSError, ValueError):
         times = {}
     times.setdefault(name, []).append(round(seconds, 3))
+    os.makedirs(os.path.dirname(TIMES_FILE), exist_ok=True)
     with open(TIMES_FILE, "w") as f:
         json.dump(times, f, indent=1)
 
