@@ -68,8 +68,8 @@ std::string ShareSession::start(dds_entity_t participant, const std::string& own
     std::lock_guard lock(mutex_);
     book_.set_own_participant(own_guid);
     book_.reader_made(now);
+    writer_participants_.clear();
   }
-  writer_participants_.clear();
   dds_qos_t* qos = share_qos();
   topic_ = create_topic_allowing_dash(participant, shared_usb_descriptor(), kSharedUsbTopic, qos);
   if (topic_ < 0) {
@@ -208,14 +208,17 @@ void ShareSession::on_data_available(dds_entity_t reader, void* arg) {
 }
 
 std::string ShareSession::participant_of_writer(dds_entity_t reader, dds_instance_handle_t writer) {
-  // Only this reader's listener calls it (Cyclone runs one listener call of an
-  // entity at a time), and start() clears the cache before the reader exists.
-  if (auto it = writer_participants_.find(writer); it != writer_participants_.end()) return it->second;
+  {
+    std::lock_guard lock(mutex_);
+    if (auto it = writer_participants_.find(writer); it != writer_participants_.end()) return it->second;
+  }
+  // Asked of Cyclone outside the lock (a lock is never held across a call into it).
   std::string guid;
   if (dds_builtintopic_endpoint_t* ep = dds_get_matched_publication_data(reader, writer)) {
     guid = guid_to_string(ep->participant_key);
     dds_builtintopic_free_endpoint(ep);
   }
+  std::lock_guard lock(mutex_);
   // Bounded like the reader's instances: a flood of writers cannot grow it for good.
   if (writer_participants_.size() >= 4096) writer_participants_.clear();
   if (!guid.empty()) writer_participants_.emplace(writer, guid);

@@ -49,7 +49,8 @@ class ShareSession {
  private:
   static void on_data_available(dds_entity_t reader, void* arg);
   void take_samples(dds_entity_t reader);
-  // The participant GUID of a matched writer, cached: one lookup per writer.
+  // The participant GUID of a matched writer, cached: one lookup per writer. Takes
+  // mutex_ (not held by the caller).
   std::string participant_of_writer(dds_entity_t reader, dds_instance_handle_t writer);
   bool write(const std::string& camera, const std::string& payload);
   void dispose(const std::string& camera);
@@ -58,9 +59,9 @@ class ShareSession {
   dds_entity_t topic_ = 0, reader_ = 0, writer_ = 0;  // main thread
   std::map<std::string, std::string> published_;      // camera id -> payload written (main thread)
 
-  mutable std::mutex mutex_;  // the book; listener thread and main loop
+  mutable std::mutex mutex_;  // the book and the cache; listener thread and main loop
   ShareBook book_;
-  std::map<dds_instance_handle_t, std::string> writer_participants_;  // the listener's alone
+  std::map<dds_instance_handle_t, std::string> writer_participants_;
 };
 
 }  // namespace rsd::dds
