@@ -150,7 +150,7 @@ case "${1:-}" in
     TSAN_OPTIONS="halt_on_error=1:exitcode=66:ignore_noninstrumented_modules=1:suppressions=$ROOT/tests/tsan/suppressions.txt" \
     RSD_SOAK_SECONDS=30 \
       ctest --test-dir build-tsan -j3 --output-on-failure --timeout 600 \
-      -R '^(api_harness|api_abuse|api_daemon|daemon_lifecycle|interop_realdds|interop_describe|interop_participants|usb_hotplug|systemd_reload|soak)$' \
+      -R '^(api_harness|api_abuse|api_daemon|daemon_lifecycle|interop_realdds|interop_describe|interop_participants|usb_hotplug|share_usb|share_agree|systemd_reload|soak)$' \
       || status=1
     say "test suite, AddressSanitizer + UBSan build"
     # A sanitizer finding makes the binary exit non-zero, which fails its test.
