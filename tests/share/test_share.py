@@ -21,7 +21,10 @@ from sharebed import D435, D455, note_time, site  # noqa: F401 (site: the fixtur
 from usbbed import in_umockdev
 
 sys.path.insert(0, os.path.join(TESTS_DIR, "integration"))
+sys.path.insert(0, os.path.join(os.path.dirname(TESTS_DIR), "client", "python", "src"))
 from api_util import validate_response  # noqa: E402
+
+import rsdiscovery  # noqa: E402
 
 pytestmark = pytest.mark.skipif(not in_umockdev(), reason="run under umockdev-wrapper (ctest does)")
 
@@ -66,6 +69,9 @@ def test_a_plugged_camera_is_listed_on_other_hosts_until_unplugged(site):
     assert [d["id"] for d in b.devices("?host=HOST0")] == [wanted]  # the host's name, any case
     assert [d["id"] for d in b.devices(f"?address={s.lan.ips[0]}")] == [wanted]
     assert b.devices("?host=host2") == []
+    # The Python client passes the source through (the CLI's --source takes remote-usb too).
+    got = rsdiscovery.Client("unix:" + b.socket).list_devices(source="remote-usb")
+    assert [(d.id, d.source) for d in got] == [(wanted, "remote-usb")]
     # host0 lists its camera once, as today's local USB camera: its own share is not echoed.
     own = listed(a)
     assert list(own) == [f"usb-{D455}"]
