@@ -21,8 +21,10 @@ from sharebed import D435, D455, note_time, site  # noqa: F401 (site: the fixtur
 from usbbed import in_umockdev
 
 sys.path.insert(0, os.path.join(TESTS_DIR, "integration"))
+sys.path.insert(0, os.path.join(TESTS_DIR, "client"))
 sys.path.insert(0, os.path.join(os.path.dirname(TESTS_DIR), "client", "python", "src"))
 from api_util import validate_response  # noqa: E402
+from client_util import CLI, rs_discover  # noqa: E402
 
 import rsdiscovery  # noqa: E402
 
@@ -69,9 +71,13 @@ def test_a_plugged_camera_is_listed_on_other_hosts_until_unplugged(site):
     assert [d["id"] for d in b.devices("?host=HOST0")] == [wanted]  # the host's name, any case
     assert [d["id"] for d in b.devices(f"?address={s.lan.ips[0]}")] == [wanted]
     assert b.devices("?host=host2") == []
-    # The Python client passes the source through (the CLI's --source takes remote-usb too).
+    # The clients pass the source through: the Python package and rs-discover.
     got = rsdiscovery.Client("unix:" + b.socket).list_devices(source="remote-usb")
     assert [(d.id, d.source) for d in got] == [(wanted, "remote-usb")]
+    if os.path.exists(CLI):  # built unless -DRSD_BUILD_CLIENT=OFF
+        r = rs_discover("list", "--source", "remote-usb", "--json", endpoint="unix:" + b.socket)
+        assert r.returncode == 0, r.stderr
+        assert [(d["id"], d["host"]["name"]) for d in json.loads(r.stdout)["devices"]] == [(wanted, "host0")]
     # host0 lists its camera once, as today's local USB camera: its own share is not echoed.
     own = listed(a)
     assert list(own) == [f"usb-{D455}"]
