@@ -133,7 +133,7 @@ case "${1:-}" in
     build build-asan -DRSD_SANITIZE=ON -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_FLAGS_DEBUG="-O1 -g1" \
       -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1"
     # libFuzzer binaries (clang, ASan + UBSan): only the fuzz targets and what they link.
-    build_targets build-fuzz "fuzz_device_info fuzz_request fuzz_api_values fuzz_config" \
+    build_targets build-fuzz "fuzz_device_info fuzz_request fuzz_api_values fuzz_config fuzz_shared_usb" \
       -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DRSD_LIBFUZZER=ON -DRSD_SANITIZE=ON -DRSD_BUILD_CLIENT=OFF
     # ThreadSanitizer (tests/tsan/README.md): the daemon and the API harness only.
     build_targets build-tsan "rs-discoveryd api_harness" -DRSD_TSAN=ON
@@ -150,7 +150,7 @@ case "${1:-}" in
     TSAN_OPTIONS="halt_on_error=1:exitcode=66:ignore_noninstrumented_modules=1:suppressions=$ROOT/tests/tsan/suppressions.txt" \
     RSD_SOAK_SECONDS=30 \
       ctest --test-dir build-tsan -j3 --output-on-failure --timeout 600 \
-      -R '^(api_harness|api_abuse|api_daemon|daemon_lifecycle|interop_realdds|interop_describe|interop_participants|usb_hotplug|systemd_reload|soak)$' \
+      -R '^(api_harness|api_abuse|api_daemon|daemon_lifecycle|interop_realdds|interop_describe|interop_participants|usb_hotplug|share_usb|share_agree|systemd_reload|soak)$' \
       || status=1
     say "test suite, AddressSanitizer + UBSan build"
     # A sanitizer finding makes the binary exit non-zero, which fails its test.

@@ -166,6 +166,8 @@ int main(int argc, char** argv) {
       malloc_trim(0);
       next_trim = now + kTrimEvery;
     }
+    // This host's cameras, announced to other hosts (at most a tick after a plug).
+    if (options.session.share.share) domains.share_usb(usb.cameras());
     const auto wait = std::chrono::ceil<std::chrono::milliseconds>(std::min(
         {domains.tick(now), network.tick(now), service.tick(now), Clock::duration(next_trim - now)}));
     pollfd pfds[2] = {{signal_fd, POLLIN, 0}, {network.fd(), POLLIN, 0}};  // fd -1: not polled

@@ -54,7 +54,7 @@ inline constexpr OptionSpec kCompleteTimeoutOption = {
 inline constexpr OptionSpec kDomainOption = {"domain", 'd', "N", "only devices on DDS domain N (repeat for several)"};
 inline constexpr OptionSpec kProductLineOption = {"product-line", 'p', "LINE",
                                                   "only devices of this product line (D400, D500, ...)"};
-inline constexpr OptionSpec kSourceOption = {"source", 's', "SOURCE", "only devices seen this way: dds or usb"};
+inline constexpr OptionSpec kSourceOption = {"source", 's', "SOURCE", "only devices seen this way: dds, usb or remote-usb (another host's USB)"};
 inline constexpr OptionSpec kSerialOption = {"serial", 0, "SERIAL", "only the device with this serial number"};
 inline constexpr OptionSpec kNameOption = {"name", 'n', "TEXT", "only devices whose name contains TEXT (any case)"};
 inline constexpr OptionSpec kAddressOption = {"address", 'a', "ADDR",

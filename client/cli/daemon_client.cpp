@@ -85,8 +85,8 @@ rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args) {
   f.address = args.get("address");
   f.product_line = args.get("product-line");
   f.source = args.get("source");
-  if (!f.source.empty() && f.source != "dds" && f.source != "usb")
-    throw UsageError("--source wants dds or usb, not '" + f.source + "'");
+  if (!f.source.empty() && f.source != "dds" && f.source != "usb" && f.source != "remote-usb")
+    throw UsageError("--source wants dds, usb or remote-usb, not '" + f.source + "'");
   return f;
 }
 

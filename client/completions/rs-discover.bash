@@ -49,7 +49,7 @@ _rs_discover() {
     fi
 
     case "$prev" in
-        --source | -s) COMPREPLY=($(compgen -W "dds usb" -- "$cur")); return ;;
+        --source | -s) COMPREPLY=($(compgen -W "dds usb remote-usb" -- "$cur")); return ;;
         --color) COMPREPLY=($(compgen -W "auto always never" -- "$cur")); return ;;
         --serial) COMPREPLY=($(compgen -W "$(_rs_discover_daemon --format '{serial}')" -- "$cur")); return ;;
         --domain | -d | --product-line | -p | --name | -n | --address | -a | --format | -f | --timeout | -t | \

@@ -89,7 +89,7 @@ std::optional<std::string> check_params(std::string_view route, const QueryParam
 std::optional<std::string> parse_device_filter(const QueryParams& params, DeviceFilter& out,
                                                const std::set<std::string>& also_allowed) {
   std::set<std::string> allowed = also_allowed;
-  allowed.insert({"domain", "product-line", "source", "serial", "name", "address"});
+  allowed.insert({"domain", "product-line", "source", "serial", "name", "address", "host"});
   if (auto err = check_params("this route", params, allowed)) return err;
   for (const auto& [key, value] : params) {
     if (key == "domain") {
@@ -101,11 +101,12 @@ std::optional<std::string> parse_device_filter(const QueryParams& params, Device
       out.product_lines.insert(lower(value));
     } else if (key == "source") {
       auto source = model::parse_source(lower(value));
-      if (!source) return "bad source '" + value + "': expected dds or usb";
+      if (!source) return "bad source '" + value + "': expected dds, usb or remote-usb";
       out.sources.insert(*source);
-    } else if (key == "serial" || key == "name" || key == "address") {
+    } else if (key == "serial" || key == "name" || key == "address" || key == "host") {
       if (value.empty()) return "empty " + key;
-      (key == "serial" ? out.serials : key == "name" ? out.names : out.addresses).insert(lower(value));
+      (key == "serial" ? out.serials : key == "name" ? out.names : key == "host" ? out.hosts : out.addresses)
+          .insert(lower(value));
     }
   }
   return std::nullopt;
@@ -145,11 +146,15 @@ bool DeviceFilter::matches(const model::Device& device) const {
       return false;
   }
   if (!addresses.empty()) {
+    // A network camera's server, or the host sharing a remote-usb camera.
     const std::vector<std::string> none;
-    const auto& mine = device.server && device.server->addresses ? *device.server->addresses : none;
+    const auto& mine = device.server && device.server->addresses ? *device.server->addresses
+                       : device.host                             ? device.host->addresses
+                                                                 : none;
     if (std::none_of(mine.begin(), mine.end(), [&](const std::string& a) { return addresses.contains(lower(a)); }))
       return false;
   }
+  if (!hosts.empty() && (!device.host || !hosts.contains(lower(device.host->name)))) return false;
   return true;
 }
 

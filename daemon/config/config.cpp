@@ -142,6 +142,9 @@ Options:
       --max-clients N        API connections at once, both listeners (default: 4096);
                              beyond, new clients get 503 with Retry-After
       --no-usb               do not watch local USB cameras
+      --share-usb            announce this host's USB cameras on every DDS domain, so that
+                             the daemons of other hosts list them (default: off; other
+                             hosts' shared cameras are listed either way)
       --participant-name NAME
                              DDS participant name others see (default: rs-discoveryd)
       --interface NAME|PATTERN
@@ -177,7 +180,7 @@ Options:
   -V, --version              print the version and exit
   -h, --help                 print this help and exit
 
-Config file keys: domains, socket, http, usb, participant-name, log-level,
+Config file keys: domains, socket, http, usb, share-usb, participant-name, log-level,
 cyclonedds-config, max-devices-per-participant, max-devices-per-domain,
 max-writers-per-participant, max-writers-per-domain, interfaces and
 exclude-interfaces (lists), describe-timeout, describe-eagerly (true, false or a list of domains), allowed-hosts

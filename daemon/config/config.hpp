@@ -26,6 +26,10 @@ struct Config {
   // is reported (log, /healthz "http", rs-discover doctor), the default is not.
   bool http_set = false;
   bool usb = true;
+  // Announce this host's USB cameras on every domain (rs-discoveryd/shared-usb) so
+  // other hosts' daemons list them; off by default: it tells the network what is
+  // plugged in here. Other hosts' shared cameras are listed either way.
+  bool share_usb = false;
   std::string participant_name = "rs-discoveryd";
   std::string log_level = "info";
   std::string cyclonedds_config;  // XML fragment or file URI, passed to every domain

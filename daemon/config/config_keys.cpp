@@ -205,6 +205,13 @@ const ConfigKey kKeys[] = {
      },
      [](const std::string&, Config& c, bool, const std::string&) { c.usb = false; },
      copy<&Config::usb>, same<&Config::usb>},
+    {"share-usb", "share-usb", '\0', false, Reload::restart,
+     [](const json& v, Config& c, const std::string& at) {
+       if (!v.is_boolean()) throw ConfigError(at + " must be true or false");
+       c.share_usb = v.get<bool>();
+     },
+     [](const std::string&, Config& c, bool, const std::string&) { c.share_usb = true; },
+     copy<&Config::share_usb>, same<&Config::share_usb>},
     {"participant-name", "participant-name", '\0', true, Reload::restart,
      text_from_file<&Config::participant_name, any_text>, text_from_flag<&Config::participant_name, any_text>,
      copy<&Config::participant_name>, same<&Config::participant_name>},

@@ -22,6 +22,7 @@ DaemonOptions daemon_options(const Config& config, std::string_view cyclone_uri)
   session.describe_timeout = std::chrono::seconds(config.describe_timeout_s);
   session.describe_eagerly = config.describe_eagerly_all;
   session.describe_eagerly_in = {config.describe_eagerly.begin(), config.describe_eagerly.end()};
+  session.share.share = config.share_usb;
   // An explicit choice of interfaces in the Cyclone configuration (the option, else
   // CYCLONEDDS_URI) is the user's: the daemon then neither chooses nor follows.
   session.interfaces_from_cyclone_config = net::cyclone_config_names_interfaces(

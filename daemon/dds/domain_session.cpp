@@ -1,4 +1,10 @@
+// DomainSession's lifecycle (join, leave, rebuild, follow the network), its timers,
+// and the realsense/device-info reader that feeds the DomainBook. Who is on the
+// domain (the built-in topics) is domain_participants.cpp; shared USB cameras are
+// ShareSession's.
 #include "dds/domain_session.hpp"
+
+#include "dds/builtin_topics.hpp"
 
 #include "dds/flexible_topic.hpp"
 #include "log/log.hpp"
@@ -38,35 +44,6 @@ std::string dds_error(const char* what, dds_return_t rc) {
   return std::string(what) + ": " + dds_strretcode(rc);
 }
 
-std::vector<std::string> split_addresses(const char* value) {
-  // Cyclone's "__NetworkAddresses" property: comma-separated locators such as
-  // "192.0.2.2:22660@4" or "[fe80::1]:7410@4"; users want the host part.
-  std::vector<std::string> out;
-  std::string s = value ? value : "";
-  std::size_t pos = 0;
-  while (pos < s.size()) {
-    std::size_t end = s.find(',', pos);
-    if (end == std::string::npos) end = s.size();
-    std::string item = s.substr(pos, end - pos);
-    pos = end + 1;
-    if (auto slash = item.find('/'); slash != std::string::npos) item = item.substr(slash + 1);
-    item = item.substr(0, item.find('@'));
-    if (!item.empty() && item.front() == '[') {
-      item = item.substr(1, item.find(']') - 1);
-    } else if (std::count(item.begin(), item.end(), ':') == 1) {
-      item = item.substr(0, item.find(':'));
-    }
-    // Cyclone 11 peers list their multicast locators too (239.255.0.1 seen):
-    // a group address is not where the camera is.
-    const bool multicast = item.starts_with("ff") || (item.find('.') != std::string::npos &&
-                                                      std::atoi(item.c_str()) >= 224 && std::atoi(item.c_str()) <= 239);
-    if (!item.empty() && !multicast && is_valid_utf8(item) &&
-        std::find(out.begin(), out.end(), item) == out.end())
-      out.push_back(item);
-  }
-  return out;
-}
-
 }  // namespace
 
 std::string guid_to_string(const dds_guid_t& guid) {
@@ -87,7 +64,12 @@ DomainSession::DomainSession(SharedTable& table, SessionOptions options)
       fetcher_(options_.domain, options_.describe_timeout,
                [&table, domain = options_.domain](const std::string& topic_root) {
                  table.note_described(device_id(domain, topic_root));  // the `described` event
-               }) {}
+               }),
+      share_(table, [this] {
+        ShareOptions share = options_.share;
+        share.book.domain = options_.domain;
+        return share;
+      }()) {}
 
 DomainSession::~DomainSession() { stop(); }
 
@@ -132,23 +114,10 @@ void DomainSession::start() {
     std::lock_guard lock(mutex_);
     participant_guid_ = guid_to_string(guid);
   }
-  // Read, never taken: Cyclone keeps each live participant's sample here, so a
-  // writer's participant name and addresses can be looked up by instance handle.
-  // Its listener also tells which participants are alive, to tell a lost server
-  // (participant gone) from one that only dropped a device (participant alive).
-  dds_listener_t* participant_listener = dds_create_listener(this);
-  dds_lset_data_available(participant_listener, &DomainSession::on_participant_data);
-  participant_reader_ =
-      dds_create_reader(participant_, DDS_BUILTIN_TOPIC_DCPSPARTICIPANT, nullptr, participant_listener);
-  dds_delete_listener(participant_listener);
-  // Every reader and writer of the domain's participants, counted per participant
-  // (taken, not kept): a participant heard but with none was reached by multicast
-  // only, the doctor's "firewall" case.
-  dds_listener_t* endpoint_listener = dds_create_listener(this);
-  dds_lset_data_available(endpoint_listener, &DomainSession::on_endpoint_data);
-  for (const dds_entity_t topic : {DDS_BUILTIN_TOPIC_DCPSPUBLICATION, DDS_BUILTIN_TOPIC_DCPSSUBSCRIPTION})
-    dds_create_reader(participant_, topic, nullptr, endpoint_listener);
-  dds_delete_listener(endpoint_listener);
+  create_builtin_readers();
+  // Shared USB cameras: a failure costs sharing, not the domain.
+  if (const std::string why = share_.start(participant_, guid_to_string(guid), Clock::now()); !why.empty())
+    log::warning(log::domain_prefix(d) + why);
 
   dds_qos_t* tqos = dds_create_qos();
   dds_qset_reliability(tqos, DDS_RELIABILITY_RELIABLE, DDS_SECS(10));
@@ -178,6 +147,9 @@ void DomainSession::start() {
 void DomainSession::stop() {
   fetcher_.set_participant(0);  // fetches end, their readers go before the participant
   delete_reader();
+  // Leaving for good, other hosts see this host's cameras go now (not at lease
+  // expiry); a rebuild hands them to the next participant's writer.
+  share_.stop(!rebuilding_);
   if (domain_ > 0) dds_delete(domain_);  // takes the participant, topic and builtin reader with it
   else if (participant_ > 0) dds_delete(participant_);
   domain_ = participant_ = topic_ = participant_reader_ = 0;
@@ -191,12 +163,12 @@ void DomainSession::stop() {
 void DomainSession::rebuild() {
   log::notice(log::domain_prefix(options_.domain) +
               "rebuilding the DDS participant; devices are kept until reconciled");
+  rebuilding_ = true;
   stop();
   {
     std::lock_guard lock(mutex_);
     ++rebuilds_;
   }
-  rebuilding_ = true;
   try {
     start();  // the reader follows after the settle time, then reconciliation
   } catch (...) {
@@ -217,8 +189,22 @@ void DomainSession::follow_network(std::vector<net::NetInterface> chosen) {
 }
 
 void DomainSession::forget_devices() {
-  std::lock_guard lock(mutex_);
-  book_.forget_devices();
+  {
+    std::lock_guard lock(mutex_);
+    book_.forget_devices();
+  }
+  share_.forget_devices();
+}
+
+void DomainSession::share_usb(const std::map<std::string, nlohmann::json>& cameras) {
+  // Where other hosts reach this one: the addresses the domain is joined on
+  // (only the main thread changes them).
+  std::vector<std::string> addresses;
+  if (!options_.interfaces_from_cyclone_config)
+    for (const auto& i : options_.interfaces)
+      for (const auto& a : i.ipv4)
+        if (addresses.size() < kMaxSharedAddresses) addresses.push_back(a);
+  share_.publish(cameras, addresses);
 }
 
 bool DomainSession::reading() const { return reader_ > 0; }
@@ -287,6 +273,7 @@ MatchedWriters DomainSession::matched_writers(dds_entity_t reader) const {
 DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   using namespace std::chrono;
   if (participant_ <= 0) return seconds(1);
+  share_.tick(now);  // its reconciliation is seconds long: the 250 ms below is fine enough
   if (reader_ <= 0) {
     if (now - joined_at_ < options_.settle) return options_.settle - (now - joined_at_);
     create_reader();
@@ -339,159 +326,6 @@ void DomainSession::on_data_available(dds_entity_t reader, void* arg) {
   }
 }
 
-void DomainSession::on_participant_data(dds_entity_t reader, void* arg) {
-  try {
-    static_cast<DomainSession*>(arg)->take_participant_changes(reader);
-  } catch (const std::exception& e) {
-    log::error(std::string("participant listener: ") + e.what());
-  }
-}
-
-namespace {
-
-// Every loaned read of the DCPSParticipant reader passes an array this long.
-// Cyclone 0.10.2 fills as many pointers of the caller's array as its cached loan
-// holds, which is the largest count any read of the reader asked for, not the
-// count given (measured: a one-sample read after a 16-sample one wrote 15
-// pointers past a one-element array, over the caller's stack; the daemon then
-// aborted in free()). Kept one size, no read can overrun.
-constexpr std::size_t kParticipantBatch = 16;
-using ParticipantLoan = std::array<void*, kParticipantBatch>;
-
-// A participant as DDS announced it (its SPDP, as Cyclone keeps it), read
-// from the DCPSParticipant reader by instance; nothing if it is gone meanwhile.
-std::optional<ParticipantSighting> read_participant(dds_entity_t reader, dds_instance_handle_t handle) {
-  ParticipantLoan loan{};
-  dds_sample_info_t info{};
-  if (dds_read_instance(reader, loan.data(), &info, kParticipantBatch, 1, handle) <= 0) return std::nullopt;
-  const auto& p = *static_cast<const dds_builtintopic_participant_t*>(loan[0]);
-  ParticipantSighting s;
-  s.guid = guid_to_string(p.key);
-  if (!p.qos) {
-    dds_return_loan(reader, loan.data(), 1);
-    return s;
-  }
-  // Untrusted text from the network: kept only when it is UTF-8 (the API is JSON).
-  const auto text = [](char* value) -> std::optional<std::string> {
-    std::optional<std::string> out;
-    if (value && is_valid_utf8(value)) out = value;
-    dds_free(value);
-    return out;
-  };
-  char* value = nullptr;
-  if (dds_qget_entity_name(p.qos, &value)) s.name = text(value).value_or("");
-  value = nullptr;
-  if (dds_qget_prop(p.qos, "__NetworkAddresses", &value)) {
-    s.addresses = split_addresses(value);
-    dds_free(value);
-  }
-  // Cyclone peers say where they run (measured: Fast DDS peers do not).
-  value = nullptr;
-  if (dds_qget_prop(p.qos, "__Hostname", &value)) s.host = text(value);
-  value = nullptr;
-  if (dds_qget_prop(p.qos, "__ProcessName", &value)) s.process = text(value);
-  value = nullptr;
-  if (dds_qget_prop(p.qos, "__Pid", &value)) {
-    if (auto pid = text(value)) {
-      char* end = nullptr;
-      const long long n = std::strtoll(pid->c_str(), &end, 10);
-      if (end && *end == '\0' && !pid->empty() && n > 0) s.pid = n;
-    }
-  }
-  dds_liveliness_kind_t kind{};
-  dds_duration_t lease = 0;
-  if (dds_qget_liveliness(p.qos, &kind, &lease) && lease > 0 && lease != DDS_INFINITY)
-    s.lease_seconds = static_cast<double>(lease) / 1e9;
-  dds_return_loan(reader, loan.data(), 1);
-  return s;
-}
-
-}  // namespace
-
-void DomainSession::take_participant_changes(dds_entity_t reader) {
-  // Only samples not read before: each is a participant appearing, changing or
-  // leaving. Alive ones are read, not taken, so identify() can still look names
-  // up; a gone one is taken, or Cyclone would keep every peer that ever came by.
-  ParticipantLoan samples{};
-  std::array<dds_sample_info_t, kParticipantBatch> infos{};
-  struct Change {
-    dds_instance_handle_t handle;
-    std::string guid;
-    dds_instance_state_t state;
-  };
-  std::vector<Change> changes;
-  for (;;) {
-    samples.fill(nullptr);
-    const dds_return_t n = dds_read_mask(reader, samples.data(), infos.data(), kParticipantBatch, kParticipantBatch,
-                                         DDS_NOT_READ_SAMPLE_STATE | DDS_ANY_VIEW_STATE | DDS_ANY_INSTANCE_STATE);
-    if (n <= 0) break;
-    for (dds_return_t i = 0; i < n; ++i) {
-      const auto& info = infos[static_cast<std::size_t>(i)];
-      const auto* p = static_cast<const dds_builtintopic_participant_t*>(samples[static_cast<std::size_t>(i)]);
-      changes.push_back({info.instance_handle, guid_to_string(p->key), info.instance_state});
-    }
-    dds_return_loan(reader, samples.data(), n);
-    if (static_cast<std::size_t>(n) < kParticipantBatch) break;
-  }
-  if (changes.empty()) return;
-  const std::string now = SharedTable::now_iso8601();
-  for (const auto& c : changes) {
-    const bool alive = c.state == DDS_IST_ALIVE;
-    std::optional<ParticipantSighting> sighting;
-    if (alive) sighting = read_participant(reader, c.handle);
-    std::lock_guard lock(mutex_);
-    if (alive) {
-      book_.participant_alive(c.guid, Clock::now());
-      if (sighting && c.guid != participant_guid_) participants_.alive(std::move(*sighting), now);
-    } else {
-      book_.participant_gone(c.guid, Clock::now());
-      participants_.gone(c.guid, now);
-    }
-    log::debug([&] { return log::domain_prefix(options_.domain) + "participant " + c.guid + (alive ? " alive" : " gone"); });
-  }
-  for (const auto& c : changes) {
-    if (c.state == DDS_IST_ALIVE) continue;
-    ParticipantLoan loan{};
-    std::array<dds_sample_info_t, kParticipantBatch> info{};
-    const dds_return_t n = dds_take_instance(reader, loan.data(), info.data(), kParticipantBatch, kParticipantBatch, c.handle);
-    if (n > 0) dds_return_loan(reader, loan.data(), n);
-  }
-}
-
-void DomainSession::on_endpoint_data(dds_entity_t reader, void* arg) {
-  try {
-    static_cast<DomainSession*>(arg)->take_endpoint_changes(reader);
-  } catch (const std::exception& e) {
-    log::error(std::string("endpoint listener: ") + e.what());
-  }
-}
-
-void DomainSession::take_endpoint_changes(dds_entity_t reader) {
-  // One batch size for every take of these readers (see kParticipantBatch).
-  constexpr std::size_t kBatch = 16;
-  std::array<void*, kBatch> samples{};
-  std::array<dds_sample_info_t, kBatch> infos{};
-  for (;;) {
-    samples.fill(nullptr);
-    const dds_return_t n = dds_take(reader, samples.data(), infos.data(), kBatch, kBatch);
-    if (n <= 0) break;
-    {
-      std::lock_guard lock(mutex_);
-      for (dds_return_t i = 0; i < n; ++i) {
-        const auto* ep = static_cast<const dds_builtintopic_endpoint_t*>(samples[static_cast<std::size_t>(i)]);
-        // The key is there in every sample, the rest only in valid ones; an
-        // endpoint's GUID begins with its participant's prefix.
-        const std::string guid = guid_to_string(ep->key);
-        if (infos[static_cast<std::size_t>(i)].instance_state == DDS_IST_ALIVE)
-          participants_.endpoint_alive(participant_of(guid), guid);
-        else
-          participants_.endpoint_gone(participant_of(guid), guid);
-      }
-    }
-    dds_return_loan(reader, samples.data(), n);
-    if (static_cast<std::size_t>(n) < kBatch) break;
-  }
-}
 
 void DomainSession::on_subscription_matched(dds_entity_t reader,
                                             dds_subscription_matched_status_t status, void* arg) {
@@ -580,21 +414,18 @@ std::optional<DescribeResult> DomainSession::describe(const std::string& topic_r
   return fetcher_.describe(topic_root, *announcement, wait);
 }
 
-std::vector<model::Participant> DomainSession::participants() const {
-  const std::string now = SharedTable::now_iso8601();
-  std::lock_guard lock(mutex_);
-  return participants_.list(options_.domain, now, book_.publishers(Clock::now()));
-}
-
 DomainStatus DomainSession::status() const {
-  std::lock_guard lock(mutex_);
+  DomainStatus shared;
+  share_.fill(shared);  // before mutex_: the share's lock is never taken under it
   DomainStatus s;
+  std::lock_guard lock(mutex_);
   s.domain = options_.domain;
   s.state = state_;
   s.participant_guid = participant_guid_;
   s.error = error_;
   book_.fill(s);
   for (const auto& [reason, n] : fetcher_.rejected()) s.rejected[reason] += n;
+  for (const auto& [reason, n] : shared.rejected) s.rejected[reason] += n;
   s.rebuilds = rebuilds_;
   s.refreshes = refreshes_;
   if (!options_.interfaces_from_cyclone_config)

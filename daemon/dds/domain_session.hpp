@@ -6,6 +6,7 @@
 #include "dds/domain_book.hpp"
 #include "dds/description_fetcher.hpp"
 #include "dds/domain_status.hpp"
+#include "dds/share_session.hpp"
 #include "net/interfaces.hpp"
 #include "table/shared_table.hpp"
 
@@ -55,6 +56,9 @@ struct SessionOptions {
   // few ms once discovery has settled: this long after the first reader exists,
   // the domain's first discovery counts as complete (DomainStatus::complete).
   std::chrono::milliseconds initial_grace{1000};
+  // USB cameras shared between daemons (issue 25): every session reads other
+  // hosts' cameras; with share.share on it also announces this host's.
+  ShareOptions share;
 };
 
 class DomainSession {
@@ -97,6 +101,9 @@ class DomainSession {
   bool discovery_complete() const;  // status().complete, without the rest
   // Every participant heard on the domain but the daemon's own. Any thread.
   std::vector<model::Participant> participants() const;
+  // This host's USB cameras now (sighting id -> document), announced on the domain
+  // when sharing is on. Main thread.
+  void share_usb(const std::map<std::string, nlohmann::json>& cameras);
 
  private:
   bool complete_locked() const;
@@ -115,6 +122,7 @@ class DomainSession {
   // Every writer the reader has now, however many. Needs no lock.
   MatchedWriters matched_writers(dds_entity_t reader) const;
 
+  void create_builtin_readers();  // domain_participants.cpp
   void create_reader();
   void delete_reader();
 
@@ -137,6 +145,7 @@ class DomainSession {
   DomainBook book_;
   ParticipantBook participants_;
   DescriptionFetcher fetcher_;  // its own lock: never taken while holding mutex_
+  ShareSession share_;          // its own lock: never taken while holding mutex_
   std::optional<Clock::time_point> first_reader_at_;  // kept across rebuilds
   std::uint64_t rebuilds_ = 0, refreshes_ = 0;
   std::uint64_t network_changes_ = 0;

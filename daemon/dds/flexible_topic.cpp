@@ -12,25 +12,26 @@
 
 namespace rsd::dds {
 
+dds_topic_descriptor_t without_type_information(const dds_topic_descriptor_t& generated) {
+  return dds_topic_descriptor_t{
+      .m_size = generated.m_size,
+      .m_align = generated.m_align,
+      .m_flagset = generated.m_flagset & ~static_cast<std::uint32_t>(DDS_TOPIC_XTYPES_METADATA),
+      .m_nkeys = generated.m_nkeys,
+      .m_typename = generated.m_typename,
+      .m_keys = generated.m_keys,
+      .m_nops = generated.m_nops,
+      .m_ops = generated.m_ops,
+      .m_meta = generated.m_meta,
+      .type_information = {nullptr, 0},
+      .type_mapping = {nullptr, 0},
+      .restrict_data_representation = generated.restrict_data_representation,
+  };
+}
+
 const dds_topic_descriptor_t* flexible_descriptor() {
-  static const dds_topic_descriptor_t without_type_information = [] {
-    const dds_topic_descriptor_t& generated = realdds_topics_raw_flexible_desc;
-    return dds_topic_descriptor_t{
-        .m_size = generated.m_size,
-        .m_align = generated.m_align,
-        .m_flagset = generated.m_flagset & ~static_cast<std::uint32_t>(DDS_TOPIC_XTYPES_METADATA),
-        .m_nkeys = generated.m_nkeys,
-        .m_typename = generated.m_typename,
-        .m_keys = generated.m_keys,
-        .m_nops = generated.m_nops,
-        .m_ops = generated.m_ops,
-        .m_meta = generated.m_meta,
-        .type_information = {nullptr, 0},
-        .type_mapping = {nullptr, 0},
-        .restrict_data_representation = generated.restrict_data_representation,
-    };
-  }();
-  return &without_type_information;
+  static const dds_topic_descriptor_t without = without_type_information(realdds_topics_raw_flexible_desc);
+  return &without;
 }
 
 dds_entity_t create_flexible_topic(dds_entity_t participant, const char* name, const dds_qos_t* qos) {

@@ -20,6 +20,10 @@ namespace rsd::dds {
 // realdds (Fast DDS) peers do anyway.
 const dds_topic_descriptor_t* flexible_descriptor();
 
+// `generated` (an idlc descriptor) without its type information and mapping, for
+// the same reason: the daemon's own topics (shared-usb) are read from any peer.
+dds_topic_descriptor_t without_type_information(const dds_topic_descriptor_t& generated);
+
 // dds_create_topic() of the flexible type under `name` (flexible_descriptor()).
 dds_entity_t create_flexible_topic(dds_entity_t participant, const char* name, const dds_qos_t* qos);
 

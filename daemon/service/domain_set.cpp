@@ -96,6 +96,10 @@ void DomainSet::stop() {
   for (auto& [d, s] : sessions_) s->stop();
 }
 
+void DomainSet::share_usb(const std::map<std::string, nlohmann::json>& cameras) {
+  for (auto& [d, s] : sessions_) s->share_usb(cameras);
+}
+
 DomainSet::Clock::duration DomainSet::tick(Clock::time_point now) {
   Clock::duration wait = std::chrono::seconds(1);
   for (auto& [d, s] : sessions_) wait = std::min(wait, s->tick(now));

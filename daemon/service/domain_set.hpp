@@ -49,6 +49,9 @@ class DomainSet {
 
   // The sessions' timers; returns how soon it wants to be called again.
   Clock::duration tick(Clock::time_point now);
+  // This host's USB cameras now, announced on every domain when share-usb is on
+  // (each session writes only what changed). Main thread.
+  void share_usb(const std::map<std::string, nlohmann::json>& cameras);
 
   // Main thread only (the one that changes the set).
   std::vector<int> ids() const;

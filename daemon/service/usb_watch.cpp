@@ -37,4 +37,14 @@ std::optional<UsbStatus> UsbWatch::status() const {
   return source->status();
 }
 
+std::map<std::string, nlohmann::json> UsbWatch::cameras() const {
+  std::shared_ptr<usb::UsbSource> source;
+  {
+    std::lock_guard lock(mutex_);
+    source = source_;
+  }
+  if (!source) return {};
+  return source->cameras();
+}
+
 }  // namespace rsd::service

@@ -7,6 +7,7 @@
 #include "table/shared_table.hpp"
 #include "usb/usb_source.hpp"
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -30,6 +31,8 @@ class UsbWatch {
 
   // Any thread (API workers). Nothing while USB is off.
   std::optional<UsbStatus> status() const;
+  // The local cameras (sighting id -> document); empty while USB is off.
+  std::map<std::string, nlohmann::json> cameras() const;
 
  private:
   SharedTable& table_;

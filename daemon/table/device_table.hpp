@@ -73,6 +73,7 @@ struct EventsSince {
 //   - fills fields the primary lacks from the other sightings ("usb", "warnings"...);
 //   - first-seen/last-seen: earliest/latest of its sightings.
 // At most one sighting per source joins an entry; others stay entries of their own.
+// A "remote-usb" sighting (another host's camera) never merges.
 // A merge or split is told with the ordinary events: a USB-only entry that joins a
 // DDS one is `removed` (its document then carries "merged-into": <entry id>) and the
 // DDS entry `changed`; unplugging leaves a `changed` entry; the DDS side leaving

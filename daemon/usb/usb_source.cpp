@@ -45,6 +45,7 @@ struct UsbSource::Impl {
   mutable std::mutex mutex;  // guards everything below; taken before the table's
   std::condition_variable wake;  // polling mode: stop() wakes the sleeper
   std::map<Key, std::string> known;  // device on the bus -> its sighting id
+  std::map<std::string, nlohmann::json> docs;  // sighting id -> its document (what share-usb announces)
   UsbStatus status;
 
   Impl(SharedTable& t, UsbOptions o) : table(t), options(std::move(o)) {}
@@ -106,10 +107,12 @@ struct UsbSource::Impl {
       if (k != key && other == id) id += "-" + url_safe(port_path(s.bus, s.ports));
     if (auto it = known.find(key); it != known.end() && it->second != id) {
       table.remove(it->second);  // a new device at an address we missed leaving
+      docs.erase(it->second);
       known.erase(it);
     }
     nlohmann::json doc = to_json(s, *product);
     const bool is_new = known.emplace(key, id).second;
+    docs[id] = doc;
     table.upsert(id, doc);
     if (!is_new) return;
     ++status.arrived;
@@ -125,6 +128,7 @@ struct UsbSource::Impl {
     auto it = known.find(key);
     if (it == known.end()) return;  // not ours, or a LEFT without ARRIVED
     table.remove(it->second);
+    docs.erase(it->second);
     log::info("usb: " + it->second + " left");
     known.erase(it);
     ++status.left;
@@ -253,11 +257,17 @@ void UsbSource::stop() {
     std::lock_guard lock(d.mutex);
     for (const auto& [key, id] : d.known) d.table.remove(id);
     d.known.clear();
+    d.docs.clear();
     d.status.devices = 0;
     d.status.state = "stopped";
   }
   libusb_exit(d.ctx);
   d.ctx = nullptr;
+}
+
+std::map<std::string, nlohmann::json> UsbSource::cameras() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->docs;
 }
 
 UsbStatus UsbSource::status() const {

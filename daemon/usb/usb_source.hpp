@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -44,6 +45,9 @@ class UsbSource {
   void stop();
 
   UsbStatus status() const;
+  // The cameras listed now: sighting id -> the document given to the table (what
+  // share-usb announces to other hosts). Any thread.
+  std::map<std::string, nlohmann::json> cameras() const;
 
  private:
   struct Impl;

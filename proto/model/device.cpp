@@ -12,6 +12,7 @@ const char* to_string(Source source) {
   switch (source) {
     case Source::dds: return "dds";
     case Source::usb: return "usb";
+    case Source::remote_usb: return "remote-usb";
   }
   return "unknown";
 }
@@ -19,6 +20,7 @@ const char* to_string(Source source) {
 std::optional<Source> parse_source(std::string_view text) {
   if (text == "dds") return Source::dds;
   if (text == "usb") return Source::usb;
+  if (text == "remote-usb") return Source::remote_usb;
   return std::nullopt;
 }
 
@@ -55,6 +57,12 @@ json to_json(const Server& s) {
   if (s.participant_name) out["participant-name"] = *s.participant_name;
   if (s.addresses) out["addresses"] = *s.addresses;
   if (s.writer_guid) out["writer-guid"] = *s.writer_guid;
+  return out;
+}
+
+json to_json(const Host& h) {
+  json out = {{"name", h.name}, {"addresses", h.addresses}};
+  if (h.participant_guid) out["participant-guid"] = *h.participant_guid;
   return out;
 }
 
@@ -101,6 +109,7 @@ json to_json(const Device& d) {
   put(key::last_seen, d.last_seen);
   if (d.server) out[key::server] = to_json(*d.server);
   if (d.usb) out[key::usb] = usb_json(*d.usb);
+  if (d.host) out[key::host] = to_json(*d.host);
   if (!d.warnings.empty()) out[key::warnings] = d.warnings;
   put(key::merged_into, d.merged_into);
   return out;

@@ -53,7 +53,7 @@ def test_bash_commands_options_and_devices(camera_env):
     for option in ("--domain", "--serial", "--format", "--no-headers", "--json", "--endpoint"):
         assert option in options
     assert bash_complete("rs-discover list --so", env) == ["--source"]
-    assert bash_complete("rs-discover list --source ", env) == ["dds", "usb"]
+    assert bash_complete("rs-discover list --source ", env) == ["dds", "remote-usb", "usb"]
     device_id = d.devices()[0]["id"]
     assert bash_complete("rs-discover get ", env) == sorted([device_id, info["serial"]])
     assert bash_complete("rs-discover describe 1236", env) == [info["serial"]]

@@ -67,3 +67,48 @@ class TwoHosts:
     def destroy(self):
         for ns in (self.host, self.camera):
             subprocess.run(["ip", "netns", "del", ns], capture_output=True)
+
+
+class Lan:
+    """`n` test hosts on one switch: a namespace each (10.232.N.1..n on interface
+    `rsdl0`), joined by a bridge in a namespace of its own, so that every daemon
+    sees every other one as over a real LAN (multicast discovery included).
+
+    `prefix(i, hostname)` runs a program on host i with its own host name (a UTS
+    namespace): the name a daemon gives its shared cameras."""
+
+    def __init__(self, n):
+        k = (os.getpid() * 11 + next(_serial)) % 250 + 1
+        tag = f"rsd{os.getpid() % 100000}l{k}"
+        self.switch = f"{tag}s"
+        self.hosts = [f"{tag}h{i}" for i in range(n)]
+        self.ips = [f"10.232.{k}.{i + 1}" for i in range(n)]
+        _run("ip", "netns", "add", self.switch)
+        try:
+            self.exec(self.switch, "ip", "link", "add", "br0", "type", "bridge", "mcast_snooping", "0")
+            self.exec(self.switch, "ip", "link", "set", "br0", "up")
+            for i, (ns, ip) in enumerate(zip(self.hosts, self.ips)):
+                _run("ip", "netns", "add", ns)
+                _run("ip", "link", "add", "rsdl0", "netns", ns, "type", "veth", "peer", "name", f"p{i}", "netns",
+                     self.switch)
+                self.exec(self.switch, "ip", "link", "set", f"p{i}", "master", "br0", "up")
+                self.exec(ns, "ip", "link", "set", "lo", "up")
+                self.exec(ns, "ip", "addr", "add", f"{ip}/24", "dev", "rsdl0")
+                self.exec(ns, "ip", "link", "set", "rsdl0", "up", "multicast", "on")
+                self.exec(ns, "ip", "route", "add", "224.0.0.0/4", "dev", "rsdl0")
+        except Exception:
+            self.destroy()
+            raise
+
+    def exec(self, ns, *args, input=None):
+        return _run("ip", "netns", "exec", ns, *args, input=input)
+
+    def prefix(self, i, hostname=None):
+        p = ["ip", "netns", "exec", self.hosts[i]]
+        if hostname:
+            p += ["unshare", "--uts", "sh", "-c", 'hostname "$0" && exec "$@"', hostname]
+        return p
+
+    def destroy(self):
+        for ns in self.hosts + [self.switch]:
+            subprocess.run(["ip", "netns", "del", ns], capture_output=True)

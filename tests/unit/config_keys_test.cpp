@@ -42,6 +42,7 @@ const std::map<std::string, Sample>& samples() {
       {"allowed-hosts", {"[\"a.example\"]", {"--allowed-host", "b.example", "--allowed-host", "c.example"}}},
       {"max-clients", {"200", {"--max-clients", "64"}}},
       {"usb", {"false", {"--no-usb"}}},
+      {"share-usb", {"true", {"--share-usb"}}},
       {"participant-name", {"\"from-file\"", {"--participant-name", "from-flag"}}},
       {"interfaces", {"[\"eth1\"]", {"--interface", "enp*", "--interface", "wlan0"}}},
       {"exclude-interfaces", {"[\"eth9\"]", {"--exclude-interface", "none"}}},
@@ -91,7 +92,7 @@ TEST(ConfigKeys, EverySampleIsAKeyAndEveryKeyHasASample) {
 TEST(ConfigKeys, RestartOnlyIsWhatReloadWarnsAbout) {
   // What Service::reload says "takes effect on restart" for; the rest it applies live.
   const std::vector<std::string> restart_only{
-      "socket", "http", "allowed-hosts", "max-clients", "participant-name", "cyclonedds-config",
+      "socket", "http", "allowed-hosts", "max-clients", "share-usb", "participant-name", "cyclonedds-config",
       "max-devices-per-participant", "max-devices-per-domain", "max-writers-per-participant",
       "max-writers-per-domain", "describe-timeout", "describe-eagerly"};
   const Config running;
@@ -136,7 +137,7 @@ TEST(ConfigKeys, TheFileSetsEveryKeyAndFlagsWinForEveryKey) {
   over_none.insert(over_none.end(), flags.begin(), flags.end());
   const Config both = parse(over_file).config;
   EXPECT_TRUE(rsd::changed_keys(both, parse(over_none).config).empty());
-  // Each flag's value, not the file's (usb: both say off).
+  // Each flag's value, not the file's (usb: both say off; share-usb: both on).
   EXPECT_EQ(rsd::changed_keys(both, from_file), (std::vector<std::string>{
       "domains", "socket", "http", "allowed-hosts", "max-clients", "participant-name", "interfaces",
       "exclude-interfaces", "cyclonedds-config", "log-level", "max-devices-per-participant",
@@ -204,7 +205,7 @@ std::string options_text(const rsd::DaemonOptions& o) {
   out << s.participant_name << ';' << s.cyclone_config << ';' << s.interfaces_from_cyclone_config << ';'
       << s.book.max_devices_per_participant << ';' << s.book.max_devices_per_domain << ';'
       << s.book.max_writers_per_participant << ';' << s.book.max_writers_per_domain << ';'
-      << s.describe_timeout.count() << ';' << s.describe_eagerly << ';';
+      << s.describe_timeout.count() << ';' << s.describe_eagerly << ';' << s.share.share << ';';
   list(s.describe_eagerly_in);
   list(o.interfaces.include);
   list(o.interfaces.exclude);
@@ -233,7 +234,7 @@ TEST(DaemonOptions, EachValueLandsWhereItsPartReadsIt) {
       "http": "[::1]:9002", "allowed-hosts": ["a.example"], "max-clients": 64, "participant-name": "p",
       "interfaces": ["eth1"], "exclude-interfaces": ["eth9"], "max-devices-per-participant": 16,
       "max-devices-per-domain": 64, "max-writers-per-participant": 7, "max-writers-per-domain": 6,
-      "describe-timeout": 5, "describe-eagerly": [0, 5]})",
+      "describe-timeout": 5, "describe-eagerly": [0, 5], "share-usb": true})",
                          c);
   const auto o = rsd::daemon_options(c, "");
   EXPECT_EQ(o.domains, (std::vector<int>{3, 7}));
@@ -247,6 +248,7 @@ TEST(DaemonOptions, EachValueLandsWhereItsPartReadsIt) {
   EXPECT_EQ(o.session.describe_timeout, std::chrono::seconds(5));
   EXPECT_FALSE(o.session.describe_eagerly);
   EXPECT_EQ(o.session.describe_eagerly_in, (std::set<int>{0, 5}));
+  EXPECT_TRUE(o.session.share.share);
   EXPECT_EQ(o.interfaces.include, std::vector<std::string>{"eth1"});
   EXPECT_EQ(o.interfaces.exclude, std::vector<std::string>{"eth9"});
   EXPECT_EQ(o.api.unix_socket, "/tmp/s.sock");

@@ -35,13 +35,16 @@ inline constexpr const char* first_seen = "first-seen";
 inline constexpr const char* last_seen = "last-seen";
 inline constexpr const char* server = "server";
 inline constexpr const char* usb = "usb";
+inline constexpr const char* host = "host";
 inline constexpr const char* warnings = "warnings";
 inline constexpr const char* merged_into = "merged-into";
 }  // namespace key
 
-enum class Source { dds, usb };
+// remote_usb ("remote-usb"): a camera plugged into another host's USB, which that
+// host's daemon shares over DDS (issue 25). Never merged with a local sighting.
+enum class Source { dds, usb, remote_usb };
 const char* to_string(Source source);
-std::optional<Source> parse_source(std::string_view text);  // exact: "dds", "usb"
+std::optional<Source> parse_source(std::string_view text);  // exact: "dds", "usb", "remote-usb"
 
 // What a user is told first about a camera: recovery firmware wins over a warning.
 enum class DeviceState { ok, warning, recovery };
@@ -69,6 +72,14 @@ struct Usb {
   std::optional<std::string> sysfs_path;
 };
 
+// The host whose daemon shares a remote-usb camera: the name it gives, the
+// addresses it lists, and its DDS participant.
+struct Host {
+  std::string name;
+  std::vector<std::string> addresses;
+  std::optional<std::string> participant_guid;
+};
+
 struct Device {
   std::string id;  // empty in a source's sighting: the table sets it
   std::optional<Source> source;
@@ -84,7 +95,8 @@ struct Device {
   std::optional<std::string> first_seen;  // ISO 8601 UTC, set by the table
   std::optional<std::string> last_seen;
   std::optional<Server> server;  // DDS
-  std::optional<Usb> usb;        // USB
+  std::optional<Usb> usb;        // USB (a remote-usb camera: where it is plugged on its host)
+  std::optional<Host> host;      // remote-usb
   std::vector<std::string> warnings;  // plain-language; empty: not written
   std::optional<std::string> merged_into;  // on a `removed` entry that joined another
   // Every other key, verbatim (the camera's own device-info keys; and a known key whose
@@ -100,6 +112,7 @@ struct Device {
 
 nlohmann::json to_json(const Device& device);
 nlohmann::json to_json(const Server& server);  // the "server" part alone (kept per announcer)
+nlohmann::json to_json(const Host& host);
 // Never throws (see the round trip above). Callers that need a device check first that
 // `doc` is an object with a string "id"; anything else gives an empty Device.
 Device device_from_json(const nlohmann::json& doc);

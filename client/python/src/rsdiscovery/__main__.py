@@ -14,7 +14,7 @@ def _filters(p: argparse.ArgumentParser) -> None:
     p.add_argument("-d", "--domain", type=int, action="append",
                    help="only this DDS domain (0-232); repeat for several")
     p.add_argument("--product-line", help="only this product line, e.g. D400 (any case)")
-    p.add_argument("--source", choices=["dds", "usb"], type=str.lower, help="only cameras seen by this source")
+    p.add_argument("--source", choices=["dds", "usb", "remote-usb"], type=str.lower, help="only cameras seen by this source")
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -33,8 +33,8 @@ def _check_filters(domain: Domains, product_line: Optional[str], source: Optiona
     _domains(domain)
     if product_line is not None and (not isinstance(product_line, str) or not product_line.strip()):
         raise ValueError(f"product_line must be a non-empty string such as 'D400', not {product_line!r}")
-    if source is not None and (not isinstance(source, str) or source.lower() not in ("dds", "usb")):
-        raise ValueError(f"source must be 'dds' or 'usb', not {source!r}")
+    if source is not None and (not isinstance(source, str) or source.lower() not in ("dds", "usb", "remote-usb")):
+        raise ValueError(f"source must be 'dds', 'usb' or 'remote-usb', not {source!r}")
     for key, value in (("serial", serial), ("name", name), ("address", address)):
         if value is not None and (not isinstance(value, str) or not value.strip()):
             raise ValueError(f"{key} must be a non-empty string, not {value!r}")

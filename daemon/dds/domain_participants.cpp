@@ -1,0 +1,219 @@
+// Who is on a DDS domain: DomainSession's side of Cyclone's built-in topics
+// (DCPSParticipant: names, addresses, leases, which participants are alive;
+// DCPSPublication/DCPSSubscription: endpoints per participant), feeding the
+// ParticipantBook and the DomainBook's lost-server tracking. Split from
+// domain_session.cpp, which keeps the device-info reader and the lifecycle.
+#include "dds/builtin_topics.hpp"
+#include "dds/domain_session.hpp"
+
+#include "log/log.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstdlib>
+
+namespace rsd::dds {
+namespace {
+
+std::vector<std::string> split_addresses(const char* value) {
+  // Cyclone's "__NetworkAddresses" property: comma-separated locators such as
+  // "192.0.2.2:22660@4" or "[fe80::1]:7410@4"; users want the host part.
+  std::vector<std::string> out;
+  std::string s = value ? value : "";
+  std::size_t pos = 0;
+  while (pos < s.size()) {
+    std::size_t end = s.find(',', pos);
+    if (end == std::string::npos) end = s.size();
+    std::string item = s.substr(pos, end - pos);
+    pos = end + 1;
+    if (auto slash = item.find('/'); slash != std::string::npos) item = item.substr(slash + 1);
+    item = item.substr(0, item.find('@'));
+    if (!item.empty() && item.front() == '[') {
+      item = item.substr(1, item.find(']') - 1);
+    } else if (std::count(item.begin(), item.end(), ':') == 1) {
+      item = item.substr(0, item.find(':'));
+    }
+    // Cyclone 11 peers list their multicast locators too (239.255.0.1 seen):
+    // a group address is not where the camera is.
+    const bool multicast = item.starts_with("ff") || (item.find('.') != std::string::npos &&
+                                                      std::atoi(item.c_str()) >= 224 && std::atoi(item.c_str()) <= 239);
+    if (!item.empty() && !multicast && is_valid_utf8(item) &&
+        std::find(out.begin(), out.end(), item) == out.end())
+      out.push_back(item);
+  }
+  return out;
+}
+
+}  // namespace
+
+std::optional<ParticipantSighting> read_participant(dds_entity_t reader, dds_instance_handle_t handle) {
+  ParticipantLoan loan{};
+  dds_sample_info_t info{};
+  if (dds_read_instance(reader, loan.data(), &info, kParticipantBatch, 1, handle) <= 0) return std::nullopt;
+  const auto& p = *static_cast<const dds_builtintopic_participant_t*>(loan[0]);
+  ParticipantSighting s;
+  s.guid = guid_to_string(p.key);
+  if (!p.qos) {
+    dds_return_loan(reader, loan.data(), 1);
+    return s;
+  }
+  // Untrusted text from the network: kept only when it is UTF-8 (the API is JSON).
+  const auto text = [](char* value) -> std::optional<std::string> {
+    std::optional<std::string> out;
+    if (value && is_valid_utf8(value)) out = value;
+    dds_free(value);
+    return out;
+  };
+  char* value = nullptr;
+  if (dds_qget_entity_name(p.qos, &value)) s.name = text(value).value_or("");
+  value = nullptr;
+  if (dds_qget_prop(p.qos, "__NetworkAddresses", &value)) {
+    s.addresses = split_addresses(value);
+    dds_free(value);
+  }
+  // Cyclone peers say where they run (measured: Fast DDS peers do not).
+  value = nullptr;
+  if (dds_qget_prop(p.qos, "__Hostname", &value)) s.host = text(value);
+  value = nullptr;
+  if (dds_qget_prop(p.qos, "__ProcessName", &value)) s.process = text(value);
+  value = nullptr;
+  if (dds_qget_prop(p.qos, "__Pid", &value)) {
+    if (auto pid = text(value)) {
+      char* end = nullptr;
+      const long long n = std::strtoll(pid->c_str(), &end, 10);
+      if (end && *end == '\0' && !pid->empty() && n > 0) s.pid = n;
+    }
+  }
+  dds_liveliness_kind_t kind{};
+  dds_duration_t lease = 0;
+  if (dds_qget_liveliness(p.qos, &kind, &lease) && lease > 0 && lease != DDS_INFINITY)
+    s.lease_seconds = static_cast<double>(lease) / 1e9;
+  dds_return_loan(reader, loan.data(), 1);
+  return s;
+}
+
+void DomainSession::create_builtin_readers() {
+  // Read, never taken: Cyclone keeps each live participant's sample here, so a
+  // writer's participant name and addresses can be looked up by instance handle.
+  // Its listener also tells which participants are alive, to tell a lost server
+  // (participant gone) from one that only dropped a device (participant alive).
+  dds_listener_t* participant_listener = dds_create_listener(this);
+  dds_lset_data_available(participant_listener, &DomainSession::on_participant_data);
+  participant_reader_ =
+      dds_create_reader(participant_, DDS_BUILTIN_TOPIC_DCPSPARTICIPANT, nullptr, participant_listener);
+  dds_delete_listener(participant_listener);
+  // Every reader and writer of the domain's participants, counted per participant
+  // (taken, not kept): a participant heard but with none was reached by multicast
+  // only, the doctor's "firewall" case.
+  dds_listener_t* endpoint_listener = dds_create_listener(this);
+  dds_lset_data_available(endpoint_listener, &DomainSession::on_endpoint_data);
+  for (const dds_entity_t topic : {DDS_BUILTIN_TOPIC_DCPSPUBLICATION, DDS_BUILTIN_TOPIC_DCPSSUBSCRIPTION})
+    dds_create_reader(participant_, topic, nullptr, endpoint_listener);
+  dds_delete_listener(endpoint_listener);
+}
+
+void DomainSession::on_participant_data(dds_entity_t reader, void* arg) {
+  try {
+    static_cast<DomainSession*>(arg)->take_participant_changes(reader);
+  } catch (const std::exception& e) {
+    log::error(std::string("participant listener: ") + e.what());
+  }
+}
+
+
+void DomainSession::take_participant_changes(dds_entity_t reader) {
+  // Only samples not read before: each is a participant appearing, changing or
+  // leaving. Alive ones are read, not taken, so identify() can still look names
+  // up; a gone one is taken, or Cyclone would keep every peer that ever came by.
+  ParticipantLoan samples{};
+  std::array<dds_sample_info_t, kParticipantBatch> infos{};
+  struct Change {
+    dds_instance_handle_t handle;
+    std::string guid;
+    dds_instance_state_t state;
+  };
+  std::vector<Change> changes;
+  for (;;) {
+    samples.fill(nullptr);
+    const dds_return_t n = dds_read_mask(reader, samples.data(), infos.data(), kParticipantBatch, kParticipantBatch,
+                                         DDS_NOT_READ_SAMPLE_STATE | DDS_ANY_VIEW_STATE | DDS_ANY_INSTANCE_STATE);
+    if (n <= 0) break;
+    for (dds_return_t i = 0; i < n; ++i) {
+      const auto& info = infos[static_cast<std::size_t>(i)];
+      const auto* p = static_cast<const dds_builtintopic_participant_t*>(samples[static_cast<std::size_t>(i)]);
+      changes.push_back({info.instance_handle, guid_to_string(p->key), info.instance_state});
+    }
+    dds_return_loan(reader, samples.data(), n);
+    if (static_cast<std::size_t>(n) < kParticipantBatch) break;
+  }
+  if (changes.empty()) return;
+  const std::string now = SharedTable::now_iso8601();
+  for (const auto& c : changes) {
+    const bool alive = c.state == DDS_IST_ALIVE;
+    std::optional<ParticipantSighting> sighting;
+    if (alive) sighting = read_participant(reader, c.handle);
+    std::lock_guard lock(mutex_);
+    if (alive) {
+      book_.participant_alive(c.guid, Clock::now());
+      if (sighting && c.guid != participant_guid_) participants_.alive(std::move(*sighting), now);
+    } else {
+      book_.participant_gone(c.guid, Clock::now());
+      participants_.gone(c.guid, now);
+    }
+    log::debug([&] { return log::domain_prefix(options_.domain) + "participant " + c.guid + (alive ? " alive" : " gone"); });
+  }
+  for (const auto& c : changes) {
+    if (c.state == DDS_IST_ALIVE) continue;
+    ParticipantLoan loan{};
+    std::array<dds_sample_info_t, kParticipantBatch> info{};
+    const dds_return_t n = dds_take_instance(reader, loan.data(), info.data(), kParticipantBatch, kParticipantBatch, c.handle);
+    if (n > 0) dds_return_loan(reader, loan.data(), n);
+  }
+}
+
+
+void DomainSession::on_endpoint_data(dds_entity_t reader, void* arg) {
+  try {
+    static_cast<DomainSession*>(arg)->take_endpoint_changes(reader);
+  } catch (const std::exception& e) {
+    log::error(std::string("endpoint listener: ") + e.what());
+  }
+}
+
+
+void DomainSession::take_endpoint_changes(dds_entity_t reader) {
+  // One batch size for every take of these readers (see kParticipantBatch).
+  constexpr std::size_t kBatch = 16;
+  std::array<void*, kBatch> samples{};
+  std::array<dds_sample_info_t, kBatch> infos{};
+  for (;;) {
+    samples.fill(nullptr);
+    const dds_return_t n = dds_take(reader, samples.data(), infos.data(), kBatch, kBatch);
+    if (n <= 0) break;
+    {
+      std::lock_guard lock(mutex_);
+      for (dds_return_t i = 0; i < n; ++i) {
+        const auto* ep = static_cast<const dds_builtintopic_endpoint_t*>(samples[static_cast<std::size_t>(i)]);
+        // The key is there in every sample, the rest only in valid ones; an
+        // endpoint's GUID begins with its participant's prefix.
+        const std::string guid = guid_to_string(ep->key);
+        if (infos[static_cast<std::size_t>(i)].instance_state == DDS_IST_ALIVE)
+          participants_.endpoint_alive(participant_of(guid), guid);
+        else
+          participants_.endpoint_gone(participant_of(guid), guid);
+      }
+    }
+    dds_return_loan(reader, samples.data(), n);
+    if (static_cast<std::size_t>(n) < kBatch) break;
+  }
+}
+
+
+std::vector<model::Participant> DomainSession::participants() const {
+  const std::string now = SharedTable::now_iso8601();
+  std::lock_guard lock(mutex_);
+  return participants_.list(options_.domain, now, book_.publishers(Clock::now()));
+}
+
+
+}  // namespace rsd::dds
