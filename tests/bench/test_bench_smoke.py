@@ -40,7 +40,8 @@ def test_bench_run_smoke(tmp_path):
     for path in ("query-devices", "devices-changed", "librealsense", "realdds"):  # each beside its anchor
         assert s["open"]["paths"][path]["ready_ms"]["n"] >= 1 and s["open"]["paths"][path]["first_frame_ms"]["n"] >= 1
     big = s["scale10k"]  # the 10,000-camera row, small: every camera listed, memory split, reads, fan-out
-    assert big["devices"] > 0 and big["floor_devices"] == big["domains"], big  # the floor: a camera a domain
+    # The floor holds at most a camera a domain (none when a silent writer took the one slot).
+    assert big["devices"] > 0 and big["floor_devices"] <= big["domains"], big
     assert big["memory_per_device_bytes"]["cyclone"] > 0 and big["list_all"]["requests"] > 0
     assert big["fanout"]["connected"] == big["fanout"]["watchers"]
     assert data["table"]
