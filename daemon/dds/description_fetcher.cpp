@@ -2,6 +2,7 @@
 
 #include "dds/device_info.hpp"
 #include "dds/flexible_topic.hpp"
+#include "dds/take_batches.hpp"
 #include "log/log.hpp"
 
 #include "flexible.h"
@@ -166,19 +167,13 @@ void DescriptionFetcher::on_data(dds_entity_t reader, void* arg) {
 }
 
 void DescriptionFetcher::take(Fetch& fetch, dds_entity_t reader) {
-  constexpr std::size_t kBatch = 16;
-  std::array<void*, kBatch> samples{};
-  std::array<dds_sample_info_t, kBatch> infos{};
   bool completed = false;
-  for (;;) {
-    samples.fill(nullptr);
-    const dds_return_t n = dds_take(reader, samples.data(), infos.data(), kBatch, kBatch);
-    if (n <= 0) break;
+  take_batches(reader, [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
     {
       std::lock_guard lock(mutex_);
-      for (dds_return_t i = 0; i < n && !fetch.done; ++i) {
-        if (!infos[static_cast<std::size_t>(i)].valid_data) continue;
-        const auto* msg = static_cast<const realdds_topics_raw_flexible*>(samples[static_cast<std::size_t>(i)]);
+      for (std::size_t i = 0; i < samples.size() && !fetch.done; ++i) {
+        if (!infos[i].valid_data) continue;
+        const auto* msg = static_cast<const realdds_topics_raw_flexible*>(samples[i]);
         auto parsed = parse_flexible(static_cast<std::int32_t>(msg->data_format),
                                      std::span<const std::uint8_t>(msg->data._buffer, msg->data._length));
         std::string reason;
@@ -200,9 +195,7 @@ void DescriptionFetcher::take(Fetch& fetch, dds_entity_t reader) {
         }
       }
     }
-    dds_return_loan(reader, samples.data(), n);
-    if (static_cast<std::size_t>(n) < kBatch) break;
-  }
+  });
   if (completed) {
     log::info(log::domain_prefix(domain_) + "described " + fetch.topic_root);
     changed_.notify_all();

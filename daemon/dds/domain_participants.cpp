@@ -5,6 +5,7 @@
 // domain_session.cpp, which keeps the device-info reader and the lifecycle.
 #include "dds/builtin_topics.hpp"
 #include "dds/domain_session.hpp"
+#include "dds/take_batches.hpp"
 
 #include "log/log.hpp"
 
@@ -182,30 +183,19 @@ void DomainSession::on_endpoint_data(dds_entity_t reader, void* arg) {
 
 
 void DomainSession::take_endpoint_changes(dds_entity_t reader) {
-  // One batch size for every take of these readers (see kParticipantBatch).
-  constexpr std::size_t kBatch = 16;
-  std::array<void*, kBatch> samples{};
-  std::array<dds_sample_info_t, kBatch> infos{};
-  for (;;) {
-    samples.fill(nullptr);
-    const dds_return_t n = dds_take(reader, samples.data(), infos.data(), kBatch, kBatch);
-    if (n <= 0) break;
-    {
-      std::lock_guard lock(mutex_);
-      for (dds_return_t i = 0; i < n; ++i) {
-        const auto* ep = static_cast<const dds_builtintopic_endpoint_t*>(samples[static_cast<std::size_t>(i)]);
-        // The key is there in every sample, the rest only in valid ones; an
-        // endpoint's GUID begins with its participant's prefix.
-        const std::string guid = guid_to_string(ep->key);
-        if (infos[static_cast<std::size_t>(i)].instance_state == DDS_IST_ALIVE)
-          participants_.endpoint_alive(participant_of(guid), guid);
-        else
-          participants_.endpoint_gone(participant_of(guid), guid);
-      }
+  take_batches(reader, [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
+    std::lock_guard lock(mutex_);
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      const auto* ep = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
+      // The key is there in every sample, the rest only in valid ones; an
+      // endpoint's GUID begins with its participant's prefix.
+      const std::string guid = guid_to_string(ep->key);
+      if (infos[i].instance_state == DDS_IST_ALIVE)
+        participants_.endpoint_alive(participant_of(guid), guid);
+      else
+        participants_.endpoint_gone(participant_of(guid), guid);
     }
-    dds_return_loan(reader, samples.data(), n);
-    if (static_cast<std::size_t>(n) < kBatch) break;
-  }
+  });
 }
 
 

@@ -7,6 +7,7 @@
 #include "dds/builtin_topics.hpp"
 
 #include "dds/flexible_topic.hpp"
+#include "dds/take_batches.hpp"
 #include "log/log.hpp"
 
 #include "flexible.h"
@@ -337,17 +338,11 @@ void DomainSession::on_subscription_matched(dds_entity_t reader,
 }
 
 void DomainSession::take_samples(dds_entity_t reader) {
-  constexpr std::size_t kBatch = 16;
-  std::array<void*, kBatch> samples{};
-  std::array<dds_sample_info_t, kBatch> infos{};
-  for (;;) {
-    samples.fill(nullptr);
-    const dds_return_t n = dds_take(reader, samples.data(), infos.data(), kBatch, kBatch);
-    if (n <= 0) break;
-    for (dds_return_t i = 0; i < n; ++i) {
-      const auto& info = infos[static_cast<std::size_t>(i)];
+  take_batches(reader, [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      const auto& info = infos[i];
       if (!info.valid_data) continue;  // a writer's unregister/dispose: matching tells us that
-      const auto* msg = static_cast<const realdds_topics_raw_flexible*>(samples[static_cast<std::size_t>(i)]);
+      const auto* msg = static_cast<const realdds_topics_raw_flexible*>(samples[i]);
       try {  // one bad sample must not keep the loan or the rest of the batch
         Parsed parsed = parse_device_info(static_cast<std::int32_t>(msg->data_format),
                                           std::span<const std::uint8_t>(msg->data._buffer, msg->data._length));
@@ -358,9 +353,7 @@ void DomainSession::take_samples(dds_entity_t reader) {
         log::error(std::string("device-info sample dropped: ") + e.what());
       }
     }
-    dds_return_loan(reader, samples.data(), n);
-    if (static_cast<std::size_t>(n) < kBatch) break;
-  }
+  });
 }
 
 void DomainSession::identify(dds_entity_t reader, dds_instance_handle_t publication) {

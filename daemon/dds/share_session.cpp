@@ -3,6 +3,7 @@
 
 #include "dds/domain_session.hpp"
 #include "dds/flexible_topic.hpp"
+#include "dds/take_batches.hpp"
 #include "log/log.hpp"
 
 #include "shared_usb.h"
@@ -226,14 +227,7 @@ std::string ShareSession::participant_of_writer(dds_entity_t reader, dds_instanc
 }
 
 void ShareSession::take_samples(dds_entity_t reader) {
-  // One batch size for every take of this reader (see kParticipantBatch).
-  constexpr std::size_t kBatch = 16;
-  std::array<void*, kBatch> samples{};
-  std::array<dds_sample_info_t, kBatch> infos{};
-  for (;;) {
-    samples.fill(nullptr);
-    const dds_return_t n = dds_take(reader, samples.data(), infos.data(), kBatch, kBatch);
-    if (n <= 0) break;
+  take_batches(reader, [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
     // Parsed and identified outside the lock (the lookup calls into Cyclone), then
     // handed to the book at once.
     struct Item {
@@ -243,8 +237,8 @@ void ShareSession::take_samples(dds_entity_t reader) {
       bool disposed = false;
     };
     std::vector<Item> items;
-    for (dds_return_t i = 0; i < n; ++i) {
-      const auto& info = infos[static_cast<std::size_t>(i)];
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      const auto& info = infos[i];
       if (info.instance_state != DDS_IST_ALIVE) {
         // Disposed (unplugged, the sharer stopped): gone. No writer left (the
         // sharer made anew, or its lease expired): gone unless a writer takes it over.
@@ -252,7 +246,7 @@ void ShareSession::take_samples(dds_entity_t reader) {
         continue;
       }
       if (!info.valid_data) continue;
-      const auto* s = static_cast<const rsd_share_usb_camera*>(samples[static_cast<std::size_t>(i)]);
+      const auto* s = static_cast<const rsd_share_usb_camera*>(samples[i]);
       std::string participant = participant_of_writer(reader, info.publication_handle);
       auto parsed = parse_shared_usb(options_.book.domain, get(s->host), get(s->camera), s->version,
                                      std::span<const std::uint8_t>(s->data._buffer, s->data._length), participant);
@@ -268,9 +262,7 @@ void ShareSession::take_samples(dds_entity_t reader) {
           book_.instance_gone(item.instance, item.disposed, now);
       }
     }
-    dds_return_loan(reader, samples.data(), n);
-    if (static_cast<std::size_t>(n) < kBatch) break;
-  }
+  });
 }
 
 }  // namespace rsd::dds
