@@ -842,27 +842,28 @@ http {{
                      f"{row['connections']} conn, {row['transport']} ({row['tool']})")
             ok = None
             if row["connections"] == 64 and med(ra["rps"]) is not None:
-                ok = med(ra["rps"]) >= 0.8 and med(ra["p99"]) <= 2.0
+                # Issue 24's targets (raised from 0.8x and 2x): nginx at its best, matched.
+                ok = med(ra["rps"]) >= 1.0 and med(ra["p99"]) <= 1.0
             rows.append({"comparison": label,
                          "rs_discoveryd": f"{f(med(rsd['rps']), 0)} req/s{spread(rsd['rps'], 0)}, "
                                           f"p50 {f(med(rsd['p50_ms']), 2)} ms, p99 {f(med(rsd['p99_ms']), 2)} ms",
                          "anchor": f"nginx {f(med(ng['rps']), 0)} req/s{spread(ng['rps'], 0)}, "
                                    f"p50 {f(med(ng['p50_ms']), 2)} ms, p99 {f(med(ng['p99_ms']), 2)} ms",
                          "ratio": f"{f(med(ra['rps']), 2)}× req/s, {f(med(ra['p99']), 1)}× p99",
-                         "target": ("≥ 0.8× req/s, ≤ 2× p99: " + verdict(ok)) if row["connections"] == 64 else ""})
+                         "target": ("≥ 1.0× req/s, ≤ 1.0× p99: " + verdict(ok)) if row["connections"] == 64 else ""})
         c = R.get("cli_cold", {})
         if "commands" in c:
             for name in ("rs-discover list (unix)", "rs-discover list (http)", "curl --unix-socket /v1/devices"):
                 s = c["commands"][name]
                 r = c["ratio_to_true"][name]
-                ok = r <= 2.5 if name.startswith("rs-discover list (unix)") else None
+                ok = r <= 1.5 if name.startswith("rs-discover list (unix)") else None  # issue 24 (was 2.5)
                 rows.append({"comparison": f"cold `{name}`",
                              "rs_discoveryd" if name.startswith("rs") else "anchor":
                                  f"{f(s['median'], 2)} ms median [p10 {f(s['p10'], 2)}, p90 {f(s['p90'], 2)}]",
                              "anchor" if name.startswith("rs") else "rs_discoveryd": "",
                              "ratio": f"{f(r, 1)}×{spread(c['ratio_to_true_per_round'][name], 1)} `/bin/true` "
                                       f"({f(c['commands']['/bin/true']['median'], 2)} ms)",
-                             "target": ("≤ 2.5× /bin/true: " + verdict(ok)) if ok is not None else ""})
+                             "target": ("≤ 1.5× /bin/true: " + verdict(ok)) if ok is not None else ""})
         cl = R.get("client_library", {})
         for name, e in cl.get("endpoints", {}).items():
             m = med(e["median_us"])
