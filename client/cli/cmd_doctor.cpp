@@ -45,6 +45,7 @@ int run(const ParsedArgs& args) {
   } else
     report.add(Verdict::info, "interface", "the daemon is on another host: its network is not checked from here");
   check_devices(report, devices, health);
+  check_sharing(report, devices, participants, domains);
   check_http(report, health);
   report.add(Verdict::info, "cameras", std::to_string(devices.size()) + " camera" + (devices.size() == 1 ? "" : "s") +
                                            " listed ('rs-discover list')");
@@ -68,7 +69,8 @@ const Command kDoctorCommand = {
     "a topic-root announced by two servers, link-local or container-bridge addresses,\n"
     "and, when the daemon runs on this host, its multicast route and which network the\n"
     "participants are on; USB cameras on a USB 2 link and USB the daemon cannot watch;\n"
-    "an HTTP address in the configuration that its socket unit does not listen on.\n"
+    "an HTTP address in the configuration that its socket unit does not listen on;\n"
+    "which hosts share USB cameras with it (share-usb), and other daemons that share none.\n"
     "Exit status 0 when nothing found explains a missing camera, 1 when a line says\n"
     "'warn' or 'fail' (a likely cause); 'info' lines are worth knowing and explain none.",
     {

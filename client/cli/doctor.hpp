@@ -69,6 +69,11 @@ void check_networks(Report& r, const std::vector<rsdiscovery::DomainStatus>& dom
                     const std::optional<spdp::Heard>& heard);
 void check_devices(Report& r, const std::vector<rsdiscovery::Device>& devices, const rsdiscovery::Health& health);
 void check_http(Report& r, const rsdiscovery::Health& health);
+// Which hosts share USB cameras with the daemon, and which daemons it hears share none
+// (doctor_sharing.cpp).
+void check_sharing(Report& r, const std::vector<rsdiscovery::Device>& devices,
+                   const std::vector<rsdiscovery::Participant>& participants,
+                   const std::vector<rsdiscovery::DomainStatus>& domains);
 
 // ---- when the daemon cannot be asked (doctor_unreachable.cpp) -----------------------
 

@@ -87,6 +87,16 @@ def test_a_plugged_camera_is_listed_on_other_hosts_until_unplugged(site):
              what="host2 sees host1's daemon")
     assert [d for d in c.devices() if d.get("host", {}).get("name") == "host1"] == []
     assert sorted(listed(c)) == [wanted]
+    if os.path.exists(CLI):
+        # doctor names who shares with host1's daemon, and the daemon it hears sharing none.
+        wait_for(lambda: any(p.get("host") == "host2" for p in b.get_json("/v1/participants")["participants"]),
+                 what="host1 sees host2's daemon")
+        r = rs_discover("doctor", "--json", "--listen", "0", endpoint="unix:" + b.socket)
+        sharing = [f for f in json.loads(r.stdout)["findings"] if f["topic"] == "sharing"]
+        assert {(f["verdict"], f["text"]) for f in sharing} == {
+            ("ok", f"host 'host0' at {s.lan.ips[0]} shares 1 USB camera (domain {s.domain})"),
+            ("info", "rs-discoveryd on 'host2' shares no USB camera with this one (it runs without share-usb, "
+                     "or has none plugged)")}, r.stdout
 
     t0 = time.monotonic()
     s.beds[0].unplug(path)
