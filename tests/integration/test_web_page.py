@@ -109,6 +109,35 @@ def test_live_table_details_description_and_network(daemon, realdds_server, free
     assert "1 camera" in browser.find_element(By.ID, "health").text or "(1)" in browser.find_element(By.ID, "count").text
 
 
+def test_another_hosts_camera_shows_its_host(daemon, free_domain, browser):
+    # A USB camera another host's daemon shares (issue 25): the page says whose it is.
+    import subprocess
+    import sys
+
+    from conftest import JsonLinesProcess
+    from selenium.webdriver.common.by import By
+
+    d = daemon([free_domain])
+    tools = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools")
+    peer = JsonLinesProcess([sys.executable, os.path.join(tools, "share_peer.py"), "--domain", str(free_domain)],
+                            stdin=subprocess.PIPE)
+    try:
+        assert peer.lines.get(timeout=40) == {"matched": True}
+        peer.proc.stdin.write(json.dumps({"flood": 1, "host": "lab-pc-7"}) + "\n")
+        peer.proc.stdin.flush()
+        assert peer.lines.get(timeout=30) == {"ok": True}
+        wait_for(lambda: [x["source"] for x in d.devices()] == ["remote-usb"], 15, what="the shared camera listed")
+        browser.get(d.url + "/")
+        wait_rows(browser, lambda r: "Intel RealSense D455" in r, 10, "the shared camera on the page")
+        row = rows(browser)["Intel RealSense D455"]
+        assert "host lab-pc-7 (192.0.2.9)" in row["text"] and "flood-0" in row["text"], row["text"]
+        browser.find_element(By.CSS_SELECTOR, f'#devices tr[data-id="{row["id"]}"]').click()
+        assert "shared by" in browser.find_element(By.ID, "details").text
+    finally:
+        peer.proc.stdin.close()
+        peer.proc.wait(30)
+
+
 def dds_gone(d, info):
     return all(x.get("topic-root") != info["topic-root"] for x in d.devices())
 
