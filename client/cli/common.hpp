@@ -119,8 +119,15 @@ std::string paint(const std::string& text, const char* code);  // no-op without 
 std::string join(const std::vector<std::string>& parts, const std::string& sep);
 std::string device_state(const rsdiscovery::Device& d);  // ok, recovery, warning
 const char* state_color(const std::string& state);
-std::string device_location(const rsdiscovery::Device& d);  // domain or USB port
+std::string device_location(const rsdiscovery::Device& d);  // domain or USB port (and its host)
 std::string device_addresses(const rsdiscovery::Device& d);
+// The host whose daemon shares `d` (a remote-usb camera), from its document.
+struct SharingHost {
+  std::string name;
+  std::vector<std::string> addresses;
+};
+std::optional<SharingHost> sharing_host(const rsdiscovery::Device& d);
+bool same_host_name(const std::string& a, const std::string& b);  // ignoring ASCII case
 std::string device_sources(const rsdiscovery::Device& d);
 // "5s", "3m", "2h", "4d" since an ISO 8601 UTC time; "-" when unreadable.
 std::string age_since(const std::string& iso8601);

@@ -3,8 +3,6 @@
 // which other daemons it hears share none.
 #include "doctor.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <map>
 #include <set>
 
@@ -20,15 +18,12 @@ void check_sharing(Report& r, const std::vector<rsdiscovery::Device>& devices,
   };
   std::map<std::string, Sharer> sharers;  // by host name, as the sharer announces it
   for (const auto& d : devices) {
-    if (d.source != "remote-usb") continue;
-    const auto host = nlohmann::json::parse(d.field("host"), nullptr, false);
-    const std::string name = host.is_object() ? host.value("name", std::string()) : std::string();
-    auto& s = sharers[name];
+    const auto host = sharing_host(d);
+    if (!host) continue;
+    auto& s = sharers[host->name];
     ++s.cameras;
     if (d.domain) s.domains.insert(*d.domain);
-    if (s.addresses.empty() && host.is_object() && host.contains("addresses") && host["addresses"].is_array())
-      for (const auto& a : host["addresses"])
-        if (a.is_string()) s.addresses.push_back(a.get<std::string>());
+    if (s.addresses.empty()) s.addresses = host->addresses;
   }
   for (const auto& [name, s] : sharers) {
     std::vector<std::string> ds;

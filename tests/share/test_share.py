@@ -78,6 +78,15 @@ def test_a_plugged_camera_is_listed_on_other_hosts_until_unplugged(site):
         r = rs_discover("list", "--source", "remote-usb", "--json", endpoint="unix:" + b.socket)
         assert r.returncode == 0, r.stderr
         assert [(d["id"], d["host"]["name"]) for d in json.loads(r.stdout)["devices"]] == [(wanted, "host0")]
+        # --host picks another host's cameras by its name, and the table says whose they are.
+        r = rs_discover("list", "--host", "HOST0", "-q", endpoint="unix:" + b.socket)
+        assert r.returncode == 0 and r.stdout.split() == [wanted], r.stdout + r.stderr
+        assert rs_discover("list", "--host", "host2", "-q", endpoint="unix:" + b.socket).stdout == ""
+        r = rs_discover("list", "--no-headers", endpoint="unix:" + b.socket)
+        row = [line for line in r.stdout.splitlines() if D455 in line]
+        assert len(row) == 1 and "on host0" in row[0] and s.lan.ips[0] in row[0], r.stdout
+        r = rs_discover("list", "--host", "host0", "--source", "dds", endpoint="unix:" + b.socket)
+        assert r.returncode == 2 and "remote-usb" in r.stderr
     # host0 lists its camera once, as today's local USB camera: its own share is not echoed.
     own = listed(a)
     assert list(own) == [f"usb-{D455}"]
