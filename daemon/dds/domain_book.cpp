@@ -331,7 +331,9 @@ DomainBook::Due DomainBook::tick(Clock::time_point now, const MatchedWriters& st
   for (const auto& [h, w] : writers_) {
     if (w.sent || now - w.matched_at < options_.silent_grace || idle_writers_.count(w.identity.guid)) continue;
     if (retried_writers_.erase(w.identity.guid)) {  // silent for the new reader too: it never writes
-      log::debug([&] { return prefix() + "writer " + w.identity.guid + " stayed silent for a new reader: idle"; });
+      // Named first: clang before 16 cannot capture a structured binding.
+      const std::string& guid = w.identity.guid;
+      log::debug([&] { return prefix() + "writer " + guid + " stayed silent for a new reader: idle"; });
       idle_writers_.insert(w.identity.guid);
       continue;
     }
