@@ -62,7 +62,10 @@ def emit(obj):
     print(json.dumps(obj), flush=True)
 
 
-def run_writer(participant, topic, flexible):
+def matched_writer(participant, topic, qos):
+    """A writer on `topic` once a reader has matched it, said on stdout ({"matched":
+    true}); None (and an error line) when none matched within 30 s. Shared with
+    share_peer.py."""
     matched = threading.Event()
 
     class OnMatch(Listener):
@@ -70,11 +73,18 @@ def run_writer(participant, topic, flexible):
             if status.current_count > 0:
                 matched.set()
 
-    writer = DataWriter(participant, topic, qos=QOS, listener=OnMatch())
+    writer = DataWriter(participant, topic, qos=qos, listener=OnMatch())
     if not matched.wait(30):
         emit({"error": "no reader matched within 30 s"})
-        return 1
+        return None
     emit({"matched": True})
+    return writer
+
+
+def run_writer(participant, topic, flexible):
+    writer = matched_writer(participant, topic, QOS)
+    if writer is None:
+        return 1
     for line in sys.stdin:
         if not line.strip():
             continue

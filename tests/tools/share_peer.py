@@ -13,17 +13,17 @@ matches the daemon's by type name.
 import argparse
 import json
 import sys
-import threading
 from dataclasses import dataclass
 
-from cyclonedds.core import Listener, Policy, Qos
+from cyclonedds.core import Policy, Qos
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import final, key
 from cyclonedds.idl.types import bounded_str, byte, sequence, uint8
-from cyclonedds.pub import DataWriter
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
+
+from cyclone_peer import emit, matched_writer  # the same start: a writer once a reader matched
 
 
 @dataclass
@@ -41,10 +41,6 @@ QOS = Qos(Policy.Reliability.Reliable(duration(seconds=10)), Policy.Durability.T
           Policy.History.KeepLast(1))
 
 
-def emit(obj):
-    print(json.dumps(obj), flush=True)
-
-
 def camera_doc(host, serial):
     return json.dumps({"host": {"name": host, "addresses": ["192.0.2.9"]},
                        "device": {"name": "Intel RealSense D455", "serial": serial, "product-id": "0B5C"}})
@@ -56,18 +52,9 @@ def main():
     args = ap.parse_args()
     participant = DomainParticipant(args.domain)
     topic = Topic(participant, "rs-discoveryd/shared-usb", usb_camera, qos=QOS)
-    matched = threading.Event()
-
-    class OnMatch(Listener):
-        def on_publication_matched(self, writer, status):
-            if status.current_count > 0:
-                matched.set()
-
-    writer = DataWriter(participant, topic, qos=QOS, listener=OnMatch())
-    if not matched.wait(30):
-        emit({"error": "no reader matched within 30 s"})
+    writer = matched_writer(participant, topic, QOS)
+    if writer is None:
         return 1
-    emit({"matched": True})
     for line in sys.stdin:
         if not line.strip():
             continue

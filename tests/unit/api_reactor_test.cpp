@@ -4,6 +4,7 @@
 // larger than the socket's buffer arrives whole (sendfile and the splice pipe
 // under a slow reader), and a stop answers every connection it accepted.
 #include "api/server_loop.hpp"
+#include "body_pattern.hpp"
 
 #include <gtest/gtest.h>
 
@@ -23,12 +24,6 @@ using rsd::api::LoopOptions;
 using rsd::api::RequestServer;
 using rsd::api::ServerLoop;
 using rsd::api::SharedBody;
-
-std::string pattern(std::size_t n) {
-  std::string s(n, '\0');
-  for (std::size_t i = 0; i < n; ++i) s[i] = static_cast<char>('a' + (i * 7 + i / 251) % 26);
-  return s;
-}
 
 // The client's end: blocking, with a receive timeout that only bounds a failure.
 struct Client {
@@ -72,7 +67,7 @@ struct Client {
 struct Loop {
   RequestServer unix_server{0}, http_server{0};
   std::unique_ptr<ServerLoop> loop;
-  std::shared_ptr<const SharedBody> big = std::make_shared<const SharedBody>(pattern(2 * 1024 * 1024));
+  std::shared_ptr<const SharedBody> big = std::make_shared<const SharedBody>(body_pattern(2 * 1024 * 1024));
   std::promise<void> slow_entered, slow_release;
   std::shared_future<void> release = slow_release.get_future().share();
 

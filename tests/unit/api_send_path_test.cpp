@@ -4,6 +4,7 @@
 // Until the server loop was split these were reached only through the daemon; and
 // a ServerLoop whose start fails.
 #include "api/connection.hpp"
+#include "body_pattern.hpp"
 
 #include <gtest/gtest.h>
 
@@ -19,13 +20,6 @@ using rsd::api::Clock;
 using rsd::api::Connection;
 using rsd::api::LoopListener;
 using rsd::api::SharedBody;
-
-// A body large enough for its memfd, with bytes that show any reordering.
-std::string pattern(std::size_t n) {
-  std::string s(n, '\0');
-  for (std::size_t i = 0; i < n; ++i) s[i] = static_cast<char>('a' + (i * 7 + i / 251) % 26);
-  return s;
-}
 
 struct Pair {
   int daemon = -1, client = -1;
@@ -79,7 +73,7 @@ std::pair<std::string, int> send_all(const LoopListener& listener, const std::st
 
 TEST(SharedBody, SmallBodiesAreCopiedLargeOnesSealedInAMemfd) {
   EXPECT_LT(SharedBody("{\"devices\":[]}\n").fd(), 0);
-  const std::string text = pattern(100 * 1024);
+  const std::string text = body_pattern(100 * 1024);
   SharedBody body(text);
   ASSERT_GE(body.fd(), 0);
   EXPECT_EQ(body.bytes(), text);
@@ -94,7 +88,7 @@ TEST(SharedBody, SmallBodiesAreCopiedLargeOnesSealedInAMemfd) {
 }
 
 TEST(SendPending, AHeadAndItsBodyArriveWholeAndInOrderOnEitherPath) {
-  const auto body = std::make_shared<const SharedBody>(pattern(300 * 1024));
+  const auto body = std::make_shared<const SharedBody>(body_pattern(300 * 1024));
   const std::string head = "HTTP/1.1 200 OK\r\nContent-Length: 307200\r\n\r\n";
   LoopListener unix_socket;  // head and body spliced through this thread's pipe
   LoopListener tcp;          // head with MSG_MORE, then sendfile
@@ -112,7 +106,7 @@ TEST(SendPending, AClientGoneMarksTheConnectionBroken) {
   LoopListener listener;
   const rsd::api::ConnectionOptions options;
   Connection c(pair.daemon, listener, options, Clock::now(), false);
-  c.http.out().out = pattern(64 * 1024);
+  c.http.out().out = body_pattern(64 * 1024);
   ::close(pair.client);
   pair.client = -1;
   EXPECT_FALSE(rsd::api::send_pending(c));
