@@ -81,14 +81,18 @@ def matched_writer(participant, topic, qos):
     return writer
 
 
+def commands():
+    """The test's commands, one JSON object per stdin line, until stdin closes."""
+    for line in sys.stdin:
+        if line.strip():
+            yield json.loads(line)
+
+
 def run_writer(participant, topic, flexible):
     writer = matched_writer(participant, topic, QOS)
     if writer is None:
         return 1
-    for line in sys.stdin:
-        if not line.strip():
-            continue
-        msg = json.loads(line)
+    for msg in commands():
         if "json" in msg:
             data, fmt = json.dumps(msg["json"]).encode(), 0
         else:

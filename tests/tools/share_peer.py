@@ -23,7 +23,7 @@ from cyclonedds.idl.types import bounded_str, byte, sequence, uint8
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from cyclone_peer import emit, matched_writer  # the same start: a writer once a reader matched
+from cyclone_peer import commands, emit, matched_writer  # the same start: a writer once a reader matched
 
 
 @dataclass
@@ -55,10 +55,7 @@ def main():
     writer = matched_writer(participant, topic, QOS)
     if writer is None:
         return 1
-    for line in sys.stdin:
-        if not line.strip():
-            continue
-        msg = json.loads(line)
+    for msg in commands():
         if "flood" in msg:
             for i in range(msg["flood"]):
                 cam = f"usb-flood-{i}"
