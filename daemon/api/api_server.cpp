@@ -5,6 +5,7 @@
 
 #include "api/handlers.hpp"
 #include "api/host_check.hpp"
+#include "api/list_replay.hpp"
 #include "api/listener.hpp"
 #include "api/routes.hpp"
 #include "api/server_loop.hpp"
@@ -31,12 +32,19 @@ constexpr std::chrono::milliseconds kStopGrace{500};
 // The API takes no bodies; anything bigger than this is refused before it is read.
 constexpr std::size_t kMaxPayload = 64 * 1024;
 
+QuickAnswer quick_answer(ListReplay& replay) {
+  return [&replay](std::string_view request, bool stopping, QuickReply& reply) {
+    return replay.answer(request, stopping, reply);
+  };
+}
+
 }  // namespace
 
 struct ApiServer::Impl : Handlers {
   std::unique_ptr<RequestServer> unix_server;
   std::unique_ptr<RequestServer> http_server;
   std::unique_ptr<RequestServer> offline_unix, offline_http;  // answer()
+  std::unique_ptr<ListReplay> unix_replay, http_replay;    // the plain list, past httplib
   std::unique_ptr<ServerLoop> server_loop;
   int unix_fd = -1;
   int http_fd = -1;
@@ -133,6 +141,7 @@ void ApiServer::Impl::configure(RequestServer& svr, bool http) {
     send_error(res, 500, "internal error");
   });
   svr.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+    if (const auto* ctx = RequestContext::current(); ctx && ctx->internal) return;
     if (res.status >= 100 && res.status < 600) ++requests_by_status[static_cast<std::size_t>(res.status)];
     if (log::enabled(log::Level::debug))
       log::debug("api: " + req.method + " " + req.target + " -> " + std::to_string(res.status));
@@ -159,7 +168,8 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
       }
       unix_server = std::make_unique<RequestServer>(unix_fd);
       configure(*unix_server, false);
-      listeners.push_back({unix_fd, unix_server.get(), false, where});
+      unix_replay = std::make_unique<ListReplay>(*this, *unix_server, false, nullptr);
+      listeners.push_back({unix_fd, unix_server.get(), false, where, quick_answer(*unix_replay)});
     }
     if (opts.inherited_http_fd >= 0 || !opts.http_host.empty()) {
       std::string where;
@@ -182,7 +192,8 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
       if (!host_check.enabled()) log::warning("api: allowed-hosts has \"*\": HTTP answers any Host header");
       http_server = std::make_unique<RequestServer>(http_fd);
       configure(*http_server, true);
-      listeners.push_back({http_fd, http_server.get(), true, where});
+      http_replay = std::make_unique<ListReplay>(*this, *http_server, true, &host_check);
+      listeners.push_back({http_fd, http_server.get(), true, where, quick_answer(*http_replay)});
     }
     http_status = http_health(opts.http_host, opts.http_port, opts.http_configured,
                               http_fd >= 0 ? bound_address(http_fd) : "", bound_http_port, opts.inherited_http_fd >= 0);
@@ -241,6 +252,8 @@ void ApiServer::Impl::stop_locked() {
       ::close(*fd);
       *fd = -1;
     }
+  unix_replay.reset();
+  http_replay.reset();
   unix_server.reset();
   http_server.reset();
   if (!socket_path.empty()) {

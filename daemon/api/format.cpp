@@ -416,4 +416,8 @@ bool etag_matches(std::string_view header, std::string_view etag) {
   return false;
 }
 
+std::string list_etag(std::uint64_t generation, bool complete) {
+  return "\"" + std::to_string(generation) + (complete ? "" : "-partial") + "\"";
+}
+
 }  // namespace rsd::api

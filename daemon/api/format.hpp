@@ -86,6 +86,9 @@ std::string sse_message(std::string_view event, std::optional<std::uint64_t> id,
 // Whether an If-None-Match header value names `etag` (weakly, as RFC 9110 13.1.2
 // says for GET): "*", or a comma-separated list of tags, W/ or not.
 bool etag_matches(std::string_view if_none_match, std::string_view etag);
+// The ETag of a /v1/devices list: the table's generation names the body, and a
+// list taken before the first discovery ended is another body than one after.
+std::string list_etag(std::uint64_t generation, bool complete);
 
 // A comment line; clients ignore it, proxies see traffic on an idle stream.
 std::string sse_comment(std::string_view text);

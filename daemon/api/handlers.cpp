@@ -112,7 +112,7 @@ void Handlers::handle_devices(const httplib::Request& req, httplib::Response& re
   auto body = device_list(filter, query, done, generation);
   // The table's generation names the body: a client that has it already gets a
   // 304 and keeps what it parsed.
-  const std::string etag = "\"" + std::to_string(generation) + (done ? "" : "-partial") + "\"";
+  const std::string etag = list_etag(generation, done);
   res.set_header("ETag", etag);
   res.set_header("Cache-Control", "no-cache");
   if (etag_matches(req.get_header_value("If-None-Match"), etag)) {

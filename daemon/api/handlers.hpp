@@ -59,10 +59,14 @@ class Handlers {
   // Answers by status (100-599), counted without a lock: every request touches it.
   std::array<std::atomic<std::uint64_t>, 600> requests_by_status{};
 
- private:
-  std::vector<DomainStatus> domains() const;
+  // The /v1/devices body of the table's current generation for `filter` (`query`:
+  // its parameters as the cache's key), made once per generation and thread.
+  // Also ListReplay's, which serves the plain list without httplib.
   std::shared_ptr<const SharedBody> device_list(const DeviceFilter& filter, const std::string& query, bool done,
                                                 std::uint64_t& generation);
+
+ private:
+  std::vector<DomainStatus> domains() const;
   // The devices `name` names: the one with that id, else those with that serial
   // or topic-root.
   std::vector<EntryPtr> lookup(const std::string& name) const;

@@ -12,6 +12,8 @@
 //  - BlockingPool: httplib's ThreadPool, which parked requests run on.
 // What still takes httplib's types directly: the handlers (handlers.*, events.cpp)
 // and their registration (api_server.cpp) take httplib::Request and Response.
+// ListReplay (list_replay.*) answers the plain list without httplib's parsing but
+// with its bytes: the heads it replays are httplib's, made through serve_in_memory.
 //
 // No public way: httplib (0.11 on bookworm, 0.18 on trixie, and 0.53 upstream
 // alike) runs parsing and routing only from its own listen()/listen_after_bind()

@@ -103,12 +103,27 @@ bool Reactor::drive(Connection& c, Clock::time_point now) {
 }
 
 HttpConnection::Served Reactor::serve(Connection& c) const {
+  const bool stopping = loop.stopping.load();
+  if (c.listener->quick) {
+    QuickReply reply;
+    if (c.listener->quick(std::string_view(c.http.in()).substr(0, c.http.request_length()), stopping, reply)) {
+      Outbox& o = c.http.out();
+      o.out.append(reply.head);
+      if (reply.body && reply.body->fd() >= 0) {
+        o.file = std::move(reply.body);
+        o.file_offset = 0;
+        o.file_left = o.file->bytes().size();
+      } else if (reply.body) {
+        o.out.append(reply.body->bytes());
+      }
+      return {c.http.request_length(), reply.close || stopping, false};
+    }
+  }
   RequestContext context;
   context.http = c.listener->http;
   set_request_context(&context);
   ConnectionStream stream(c);
   bool closed = false;
-  const bool stopping = loop.stopping.load();
   const bool ok = c.listener->server->serve(stream, stopping, closed);
   set_request_context(nullptr);
   HttpConnection::Served result;

@@ -14,6 +14,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace rsd::api {
@@ -58,6 +59,9 @@ struct RequestContext {
   // Set by write_shared around its write: which shared body the bytes come from.
   std::shared_ptr<const SharedBody> body;
   std::size_t body_offset = 0;
+  // A request the daemon made itself (ListReplay learning httplib's heads): not
+  // counted in the API's metrics nor logged.
+  bool internal = false;
 
   static RequestContext* current();
 };
@@ -75,11 +79,22 @@ struct LoopOptions {
   std::function<bool(std::string_view target)> blocking;
 };
 
+// A response the loop sends without running httplib: a head, then a shared body.
+struct QuickReply {
+  std::string_view head;                   // valid until the loop's next request on this thread
+  std::shared_ptr<const SharedBody> body;  // null: the head is all
+  bool close = false;                      // close the connection after it
+};
+// Answers the one complete request it is given (head and body) when it knows how,
+// else returns false and httplib serves it. Called on the loop's threads.
+using QuickAnswer = std::function<bool(std::string_view request, bool stopping, QuickReply& reply)>;
+
 struct LoopListener {
   int fd = -1;  // bound and listening (or -1: see adopt); the loop makes it non-blocking, never closes it
   RequestServer* server = nullptr;
   bool http = false;
   std::string name;
+  QuickAnswer quick;  // optional: tried before httplib on each request
 };
 
 struct LoopStats {

@@ -1,0 +1,160 @@
+// The plain list's reading (read_plain_list) and its answer from httplib's heads,
+// learnt once per table generation on each loop thread (list_replay.hpp says why).
+#include "api/list_replay.hpp"
+
+#include "api/connection.hpp"
+#include "api/format.hpp"
+#include "api/handlers.hpp"
+#include "api/host_check.hpp"
+#include "log/log.hpp"
+
+#include <array>
+#include <cctype>
+
+namespace rsd::api {
+
+namespace {
+
+constexpr std::string_view kRequestLine = "GET /v1/devices HTTP/1.1\r\n";
+
+bool iequals(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(a[i])) != std::tolower(static_cast<unsigned char>(b[i]))) return false;
+  return true;
+}
+
+// RFC 9110's token characters: a header name.
+bool is_token(std::string_view s) {
+  if (s.empty()) return false;
+  for (unsigned char c : s)
+    if (!(std::isalnum(c) || std::string_view("!#$%&'*+-.^_`|~").find(static_cast<char>(c)) != std::string_view::npos))
+      return false;
+  return true;
+}
+
+// Visible ASCII, spaces and tabs: nothing httplib could read differently.
+bool is_plain_value(std::string_view s) {
+  for (unsigned char c : s)
+    if (!(c == '\t' || (c >= 0x20 && c < 0x7f))) return false;
+  return true;
+}
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
+  return s;
+}
+
+// httplib's heads for the current body on this thread, by [304][close].
+struct Heads {
+  const ListReplay* owner = nullptr;
+  std::shared_ptr<const SharedBody> body;  // held, so that its address names only it
+  bool complete = false;
+  std::string etag;
+  std::array<std::array<std::string, 2>, 2> head;
+};
+thread_local Heads tls_heads;
+
+}  // namespace
+
+std::optional<PlainList> read_plain_list(std::string_view request) {
+  if (!request.starts_with(kRequestLine)) return std::nullopt;
+  std::string_view rest = request.substr(kRequestLine.size());
+  PlainList out;
+  bool seen[5] = {};
+  for (;;) {
+    const auto eol = rest.find("\r\n");
+    if (eol == std::string_view::npos) return std::nullopt;
+    const auto line = rest.substr(0, eol);
+    rest.remove_prefix(eol + 2);
+    if (line.empty()) break;
+    const auto colon = line.find(':');
+    if (colon == std::string_view::npos) return std::nullopt;
+    const auto name = line.substr(0, colon);
+    const auto value = trim(line.substr(colon + 1));
+    if (!is_token(name) || !is_plain_value(value)) return std::nullopt;
+    int which;
+    if (iequals(name, "host")) which = 0;
+    else if (iequals(name, "user-agent")) which = 1;
+    else if (iequals(name, "accept")) which = 2;
+    else if (iequals(name, "connection")) which = 3;
+    else if (iequals(name, "if-none-match")) which = 4;
+    else return std::nullopt;
+    if (seen[which]) return std::nullopt;
+    seen[which] = true;
+    if (which == 0) out.host = value;
+    if (which == 4) out.if_none_match = value;
+    if (which == 3) {
+      // httplib closes on exactly "close"; any other value is left to it.
+      if (value == "close") out.close = true;
+      else if (value != "keep-alive" && value != "Keep-Alive") return std::nullopt;
+    }
+  }
+  if (!rest.empty()) return std::nullopt;  // a body (the scan counted one) or a second request
+  return out;
+}
+
+namespace {
+
+// httplib's answers to the canonical plain lists, split into heads; false when
+// they are not of `body` (the table changed while they were made).
+bool learn(Heads& h, RequestServer& server, bool http, const std::shared_ptr<const SharedBody>& body,
+           std::uint64_t generation, bool complete) {
+  h = Heads{};
+  h.etag = list_etag(generation, complete);
+  RequestContext* outer = RequestContext::current();
+  RequestContext context;
+  context.http = http;
+  context.internal = true;
+  set_request_context(&context);
+  bool ok = true;
+  for (int not_modified = 0; not_modified < 2 && ok; ++not_modified)
+    for (int close = 0; close < 2 && ok; ++close) {
+      // No Host: a request without one passes the HTTP listener's check, whatever it
+      // is bound to (the request being answered has passed it already).
+      std::string request(kRequestLine);
+      if (not_modified) request += "If-None-Match: " + h.etag + "\r\n";
+      if (close) request += "Connection: close\r\n";
+      request += "\r\n";
+      std::string response = serve_in_memory(server, request);
+      const auto end = response.find("\r\n\r\n");
+      ok = end != std::string::npos && response.find("\r\nETag: " + h.etag + "\r\n") < end &&
+           response.starts_with(not_modified ? "HTTP/1.1 304 " : "HTTP/1.1 200 ") &&
+           std::string_view(response).substr(end + 4) == (not_modified ? std::string_view{} : body->bytes());
+      if (ok) h.head[not_modified][close] = response.substr(0, end + 4);
+    }
+  set_request_context(outer);
+  if (!ok) return false;
+  h.body = body;
+  h.complete = complete;
+  return true;
+}
+
+}  // namespace
+
+bool ListReplay::answer(std::string_view request, bool stopping, QuickReply& reply) {
+  const auto plain = read_plain_list(request);
+  if (!plain) return false;
+  if (host_check_ && !host_check_->allows(plain->host)) return false;  // httplib's 421
+  // As handle_devices: completeness first, then the list.
+  const bool done = handlers_.status.discovery_complete();
+  std::uint64_t generation = 0;
+  auto body = handlers_.device_list(DeviceFilter{}, std::string(), done, generation);
+  Heads& h = tls_heads;
+  if (h.owner != this || h.body != body || h.complete != done) {
+    if (!learn(h, server_, http_, body, generation, done)) return false;
+    h.owner = this;
+  }
+  const bool not_modified = etag_matches(plain->if_none_match, h.etag);
+  const bool close = plain->close || stopping;
+  reply.head = h.head[not_modified][close];
+  reply.body = not_modified ? nullptr : std::move(body);
+  reply.close = close;
+  const int status = not_modified ? 304 : 200;
+  ++handlers_.requests_by_status[static_cast<std::size_t>(status)];
+  if (log::enabled(log::Level::debug)) log::debug("api: GET /v1/devices -> " + std::to_string(status) + " (replayed)");
+  return true;
+}
+
+}  // namespace rsd::api
