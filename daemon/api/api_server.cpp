@@ -67,29 +67,24 @@ struct ApiServer::Impl : Handlers {
 };
 
 void ApiServer::Impl::configure(RequestServer& svr, bool http) {
-  svr.set_payload_max_length(kMaxPayload);
-  // Only what httplib writes in its Keep-Alive header: the loop decides when a
-  // connection ends (ServerLoop's idle timeout).
-  svr.set_keep_alive_max_count(100000);
-  svr.set_keep_alive_timeout(std::max(1, options.idle_timeout_ms / 1000));
-
-  // httplib takes the first pattern that matches: the most literal first, so that
-  // ".../description" is not taken for a device id (match_route's rule).
-  std::vector<const Route*> by_literal;
-  for (const auto& route : routes()) by_literal.push_back(&route);
-  std::stable_sort(by_literal.begin(), by_literal.end(),
-                   [](const Route* a, const Route* b) { return literal_length(*a) > literal_length(*b); });
-  for (const Route* route : by_literal) {
-    auto handler = [this, h = route->handler](const httplib::Request& req, httplib::Response& res) {
-      (this->*h)(req, res);
+  ServerRules rules;
+  rules.max_payload = kMaxPayload;
+  rules.keep_alive_timeout_s = options.idle_timeout_ms / 1000;
+  if (http)
+    rules.guard = [this](const ApiRequest& req, ApiResponse& res) {
+      const auto host = req.header("Host");
+      if (host_check.allows(host)) return false;
+      send_error(res, 421,
+                 "this daemon does not answer for host '" + host +
+                     "'; use its address or localhost (allowed-hosts in the configuration adds names)");
+      return true;
     };
-    if (route->method == "GET") svr.Get(route_regex(*route), handler);
-  }
-
+  rules.dispatch = [this](const Route& route, const ApiRequest& req, ApiResponse& res) {
+    (this->*route.handler)(req, res);
+  };
   // Any other method: 405 where the path exists (so a client learns it is
-  // read-only), 404 where it does not. Registered as plain handlers so httplib
-  // reads (and bounds) the body first and the connection stays in step.
-  auto not_allowed = [](const httplib::Request& req, httplib::Response& res) {
+  // read-only), 404 where it does not.
+  rules.not_allowed = [](const ApiRequest& req, ApiResponse& res) {
     if (match_route(req.path)) {
       res.set_header("Allow", allowed_methods(req.path));
       send_error(res, 405, "method " + req.method + " not allowed on " + req.path + "; the API is read-only");
@@ -97,55 +92,24 @@ void ApiServer::Impl::configure(RequestServer& svr, bool http) {
       send_error(res, 404, "no such path: " + req.path);
     }
   };
-  // httplib 0.11 answers 400 to a POST/PUT/PATCH/DELETE that has no body
-  // headers at all (it expects one) before any route runs; with no body there is
-  // nothing to read, so answer such requests here, before that check.
-  svr.set_pre_routing_handler([this, http, not_allowed](const httplib::Request& req, httplib::Response& res) {
-    if (http && !host_check.allows(req.get_header_value("Host"))) {
-      send_error(res, 421,
-                 "this daemon does not answer for host '" + req.get_header_value("Host") +
-                     "'; use its address or localhost (allowed-hosts in the configuration adds names)");
-      return httplib::Server::HandlerResponse::Handled;
-    }
-    if (req.method == "GET" || req.method == "HEAD" || req.has_header("Content-Length") ||
-        req.has_header("Transfer-Encoding"))
-      return httplib::Server::HandlerResponse::Unhandled;
-    not_allowed(req, res);
-    return httplib::Server::HandlerResponse::Handled;
-  });
-  svr.Post(".*", not_allowed);
-  svr.Put(".*", not_allowed);
-  svr.Patch(".*", not_allowed);
-  svr.Delete(".*", not_allowed);
-  svr.Options(".*", not_allowed);
-
   // Whatever httplib answers on its own (no route, unparsable request, too big)
   // still gets a JSON body.
-  svr.set_error_handler(httplib::Server::HandlerWithResponse([](const httplib::Request& req, httplib::Response& res) {
-    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+  rules.on_error = [](const ApiRequest& req, ApiResponse& res) {
     std::string message(status_text(res.status));
     if (res.status == 404) message = "no such path: " + req.path;
     if (res.status == 405) res.set_header("Allow", allowed_methods(req.path));
     res.set_content(error_body(res.status, message), kJson);
-    return httplib::Server::HandlerResponse::Handled;
-  }));
-  svr.set_exception_handler([](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
-    std::string what = "unknown error";
-    try {
-      if (ep) std::rethrow_exception(ep);
-    } catch (const std::exception& e) {
-      what = e.what();
-    } catch (...) {
-    }
+  };
+  rules.on_exception = [](const ApiRequest& req, ApiResponse& res, const std::string& what) {
     log::error("api: " + req.method + " " + req.path + " failed: " + what);
     send_error(res, 500, "internal error");
-  });
-  svr.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
-    if (const auto* ctx = RequestContext::current(); ctx && ctx->internal) return;
-    if (res.status >= 100 && res.status < 600) ++requests_by_status[static_cast<std::size_t>(res.status)];
+  };
+  rules.answered = [this](std::string_view method, std::string_view target, int code) {
+    if (code >= 100 && code < 600) ++requests_by_status[static_cast<std::size_t>(code)];
     if (log::enabled(log::Level::debug))
-      log::debug("api: " + req.method + " " + req.target + " -> " + std::to_string(res.status));
-  });
+      log::debug("api: " + std::string(method) + " " + std::string(target) + " -> " + std::to_string(code));
+  };
+  svr.install(routes(), rules);
 }
 
 void ApiServer::Impl::start(const ApiOptions& opts) {

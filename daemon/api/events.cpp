@@ -71,19 +71,19 @@ class TableFeed final : public EventFeed {
 
 }  // namespace
 
-void Handlers::handle_events(const httplib::Request& req, httplib::Response& res) {
+void Handlers::handle_events(const ApiRequest& req, ApiResponse& res) {
   DeviceFilter filter;
   if (auto err = parse_device_filter(req.params, filter, {"since"})) return send_error(res, 400, *err);
 
   std::optional<std::uint64_t> since;
   bool bad_last_event_id = false;
   if (req.has_param("since")) {
-    since = parse_generation(req.get_param_value("since"));
-    if (!since) return send_error(res, 400, "bad since '" + req.get_param_value("since") + "': expected a generation");
+    since = parse_generation(req.param("since"));
+    if (!since) return send_error(res, 400, "bad since '" + req.param("since") + "': expected a generation");
   }
   // Last-Event-ID is what EventSource sends back on its own; it wins over ?since.
   if (req.has_header("Last-Event-ID")) {
-    const auto v = req.get_header_value("Last-Event-ID");
+    const auto v = req.header("Last-Event-ID");
     since = parse_generation(v);
     if (!since) bad_last_event_id = true;  // not an id of ours: the client must re-list
   }
@@ -116,15 +116,10 @@ void Handlers::handle_events(const httplib::Request& req, httplib::Response& res
 
   res.set_header("Cache-Control", "no-cache");
   res.set_header("X-Accel-Buffering", "no");  // nginx and friends must not hold events back
-  // httplib writes the headers and the first chunk; then the server loop takes the
+  // The seam writes the headers and the first chunk; then the server loop takes the
   // connection over and feeds it on table changes (no thread waits per stream).
-  res.set_chunked_content_provider("text/event-stream", [feed](std::size_t, httplib::DataSink& sink) -> bool {
-    auto* context = RequestContext::current();
-    const auto first = feed->poll(Clock::now());
-    if (!context || !sink.write(first.data(), first.size())) return false;
-    context->adopt_as_stream = feed;
-    return false;  // httplib stops here and writes nothing more
-  });
+  res.content_type = "text/event-stream";
+  res.stream = std::move(feed);
 }
 
 }  // namespace rsd::api

@@ -11,12 +11,12 @@
 
 namespace rsd::api {
 
-void send_json(httplib::Response& res, int status, const nlohmann::json& body) {
+void send_json(ApiResponse& res, int status, const nlohmann::json& body) {
   res.status = status;
   res.set_content(dump(body) + "\n", kJson);
 }
 
-void send_error(httplib::Response& res, int status, const std::string& message) {
+void send_error(ApiResponse& res, int status, const std::string& message) {
   res.status = status;
   res.set_content(error_body(status, message), kJson);
 }
@@ -100,7 +100,7 @@ std::shared_ptr<const SharedBody> Handlers::device_list(const DeviceFilter& filt
   return body;
 }
 
-void Handlers::handle_devices(const httplib::Request& req, httplib::Response& res) {
+void Handlers::handle_devices(const ApiRequest& req, ApiResponse& res) {
   DeviceFilter filter;
   if (auto err = parse_device_filter(req.params, filter)) return send_error(res, 400, *err);
   std::string query;  // the parsed parameters in order: the cache's key
@@ -115,17 +115,15 @@ void Handlers::handle_devices(const httplib::Request& req, httplib::Response& re
   const std::string etag = list_etag(generation, done);
   res.set_header("ETag", etag);
   res.set_header("Cache-Control", "no-cache");
-  if (etag_matches(req.get_header_value("If-None-Match"), etag)) {
+  if (etag_matches(req.header("If-None-Match"), etag)) {
     res.status = 304;
     return;
   }
   res.status = 200;
   // Served from the shared bytes, not copied into the response (nor, by the loop,
   // into the socket: see SharedBody).
-  res.set_content_provider(body->bytes().size(), kJson,
-                           [body](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
-                             return write_shared(sink, body, offset, length);
-                           });
+  res.content_type = kJson;
+  res.shared = std::move(body);
 }
 
 std::vector<EntryPtr> Handlers::lookup(const std::string& name) const {
@@ -138,9 +136,9 @@ std::vector<EntryPtr> Handlers::lookup(const std::string& name) const {
   return hits;
 }
 
-void Handlers::handle_device(const httplib::Request& req, httplib::Response& res) {
+void Handlers::handle_device(const ApiRequest& req, ApiResponse& res) {
   if (auto err = check_params("/v1/devices/{id}", req.params, {})) return send_error(res, 400, *err);
-  const std::string id = req.matches.size() > 1 ? req.matches[1].str() : "";
+  const std::string& id = req.id;
   const bool done = status.discovery_complete();
   auto hits = lookup(id);
   if (hits.size() == 1) {
@@ -163,9 +161,9 @@ void Handlers::handle_device(const httplib::Request& req, httplib::Response& res
                        {"complete", done}});
 }
 
-void Handlers::handle_description(const httplib::Request& req, httplib::Response& res) {
+void Handlers::handle_description(const ApiRequest& req, ApiResponse& res) {
   if (auto err = check_params("/v1/devices/{id}/description", req.params, {})) return send_error(res, 400, *err);
-  const std::string name = req.matches.size() > 1 ? req.matches[1].str() : "";
+  const std::string& name = req.id;
   const auto hits = lookup(name);
   if (hits.size() != 1)
     return send_error(res, hits.empty() ? 404 : 409,
@@ -193,7 +191,7 @@ void Handlers::handle_description(const httplib::Request& req, httplib::Response
   }
 }
 
-void Handlers::handle_domains(const httplib::Request& req, httplib::Response& res) {
+void Handlers::handle_domains(const ApiRequest& req, ApiResponse& res) {
   if (auto err = check_params("/v1/domains", req.params, {})) return send_error(res, 400, *err);
   const auto all = domains();
   const auto counts = count_by_domain(table.snapshot().devices);
@@ -206,7 +204,7 @@ void Handlers::handle_domains(const httplib::Request& req, httplib::Response& re
   send_json(res, 200, {{"complete", complete(all)}, {"domains", std::move(list)}});
 }
 
-void Handlers::handle_participants(const httplib::Request& req, httplib::Response& res) {
+void Handlers::handle_participants(const ApiRequest& req, ApiResponse& res) {
   ParticipantFilter filter;
   if (auto err = parse_participant_filter(req.params, filter)) return send_error(res, 400, *err);
   nlohmann::json list = nlohmann::json::array();
@@ -215,7 +213,7 @@ void Handlers::handle_participants(const httplib::Request& req, httplib::Respons
   send_json(res, 200, {{"participants", std::move(list)}});
 }
 
-void Handlers::handle_page(const httplib::Request& req, httplib::Response& res) {
+void Handlers::handle_page(const ApiRequest& req, ApiResponse& res) {
   if (auto err = check_params("/", req.params, {})) return send_error(res, 400, *err);
   // The page runs its own inline script and style and talks to this origin only;
   // nothing else may load into it, and no other site may frame it.
@@ -228,14 +226,14 @@ void Handlers::handle_page(const httplib::Request& req, httplib::Response& res) 
   res.set_content(std::string(embedded::web_page), "text/html; charset=utf-8");
 }
 
-void Handlers::handle_spec(const httplib::Request& req, httplib::Response& res) {
+void Handlers::handle_spec(const ApiRequest& req, ApiResponse& res) {
   if (auto err = check_params("/openapi.yaml", req.params, {})) return send_error(res, 400, *err);
   res.set_header("X-Content-Type-Options", "nosniff");
   res.set_header("Cache-Control", "no-cache");
   res.set_content(std::string(embedded::openapi_yaml), "application/yaml");
 }
 
-void Handlers::handle_health(const httplib::Request& req, httplib::Response& res) {
+void Handlers::handle_health(const ApiRequest& req, ApiResponse& res) {
   if (auto err = check_params("/healthz", req.params, {})) return send_error(res, 400, *err);
   model::Health health;
   health.version = version;
@@ -254,7 +252,7 @@ void Handlers::handle_health(const httplib::Request& req, httplib::Response& res
   send_json(res, 200, model::to_json(health));
 }
 
-void Handlers::handle_metrics(const httplib::Request& req, httplib::Response& res) {
+void Handlers::handle_metrics(const ApiRequest& req, ApiResponse& res) {
   if (auto err = check_params("/metrics", req.params, {})) return send_error(res, 400, *err);
   MetricsInput in;
   in.version = version;

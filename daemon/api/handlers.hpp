@@ -4,6 +4,7 @@
 #pragma once
 
 #include "api/api_server.hpp"
+#include "api/exchange.hpp"
 #include "api/format.hpp"
 #include "api/server_loop.hpp"
 
@@ -19,24 +20,24 @@ namespace rsd::api {
 
 inline constexpr const char* kJson = "application/json";
 
-void send_json(httplib::Response& res, int status, const nlohmann::json& body);
-void send_error(httplib::Response& res, int status, const std::string& message);
+void send_json(ApiResponse& res, int status, const nlohmann::json& body);
+void send_error(ApiResponse& res, int status, const std::string& message);
 
 class Handlers {
  public:
   // `status` is everything the API shows besides the table; it must outlive these.
   Handlers(SharedTable& t, const StatusSource& s, std::string v) : table(t), status(s), version(std::move(v)) {}
 
-  void handle_devices(const httplib::Request& req, httplib::Response& res);
-  void handle_device(const httplib::Request& req, httplib::Response& res);
-  void handle_description(const httplib::Request& req, httplib::Response& res);
-  void handle_domains(const httplib::Request& req, httplib::Response& res);
-  void handle_participants(const httplib::Request& req, httplib::Response& res);
-  void handle_health(const httplib::Request& req, httplib::Response& res);
-  void handle_page(const httplib::Request& req, httplib::Response& res);
-  void handle_spec(const httplib::Request& req, httplib::Response& res);
-  void handle_metrics(const httplib::Request& req, httplib::Response& res);
-  void handle_events(const httplib::Request& req, httplib::Response& res);  // events.cpp
+  void handle_devices(const ApiRequest& req, ApiResponse& res);
+  void handle_device(const ApiRequest& req, ApiResponse& res);
+  void handle_description(const ApiRequest& req, ApiResponse& res);
+  void handle_domains(const ApiRequest& req, ApiResponse& res);
+  void handle_participants(const ApiRequest& req, ApiResponse& res);
+  void handle_health(const ApiRequest& req, ApiResponse& res);
+  void handle_page(const ApiRequest& req, ApiResponse& res);
+  void handle_spec(const ApiRequest& req, ApiResponse& res);
+  void handle_metrics(const ApiRequest& req, ApiResponse& res);
+  void handle_events(const ApiRequest& req, ApiResponse& res);  // events.cpp
 
   SharedTable& table;
   const StatusSource& status;

@@ -4,10 +4,13 @@
 #include "api/httplib_seam.hpp"
 
 #include "api/connection.hpp"
+#include "api/routes.hpp"
 
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <exception>
+#include <vector>
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -54,7 +57,121 @@ class MemoryStream final : public httplib::Stream {
   std::size_t pos_ = 0;
 };
 
+ApiRequest api_request(const httplib::Request& req) {
+  ApiRequest out;
+  out.method = req.method;
+  out.path = req.path;
+  out.target = req.target;
+  out.params = QueryParams(req.params.begin(), req.params.end());
+  if (req.matches.size() > 1) out.id = req.matches[1].str();
+  out.headers.assign(req.headers.begin(), req.headers.end());
+  return out;
+}
+
+// `api` into httplib's response: the same calls the handlers made on httplib's
+// types before, so the bytes written are as they were.
+void into_httplib(ApiResponse&& api, httplib::Response& res) {
+  res.status = api.status;
+  for (auto& [name, value] : api.headers) res.set_header(name, value);
+  if (api.stream) {
+    // httplib writes the head and this first chunk; then the loop takes the
+    // connection over (RequestContext::adopt_as_stream) and feeds it.
+    res.set_chunked_content_provider(api.content_type, [feed = std::move(api.stream)](std::size_t, httplib::DataSink& sink) {
+      auto* context = RequestContext::current();
+      const auto first = feed->poll(Clock::now());
+      if (!context || !sink.write(first.data(), first.size())) return false;
+      context->adopt_as_stream = feed;
+      return false;  // httplib stops here and writes nothing more
+    });
+  } else if (api.shared) {
+    const auto size = api.shared->bytes().size();
+    res.set_content_provider(size, api.content_type,
+                             [body = std::move(api.shared)](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+                               return write_shared(sink, body, offset, length);
+                             });
+  } else if (!api.body.empty() || !api.content_type.empty()) {
+    res.set_content(std::move(api.body), api.content_type);
+  }
+}
+
+// Runs `handle` on the API's view of `req` and writes its answer into `res`.
+template <typename Handle>
+void answer(const httplib::Request& req, httplib::Response& res, Handle&& handle) {
+  ApiResponse api;
+  api.status = res.status;
+  handle(api_request(req), api);
+  into_httplib(std::move(api), res);
+}
+
 }  // namespace
+
+void RequestServer::install(std::span<const Route> routes, const ServerRules& rules) {
+  set_payload_max_length(rules.max_payload);
+  // Only what httplib writes in its Keep-Alive header: the loop decides when a
+  // connection ends (ServerLoop's idle timeout).
+  set_keep_alive_max_count(100000);
+  set_keep_alive_timeout(std::max(1, rules.keep_alive_timeout_s));
+
+  // httplib takes the first pattern that matches: the most literal first, so that
+  // ".../description" is not taken for a device id (match_route's rule).
+  std::vector<const Route*> by_literal;
+  for (const auto& route : routes) by_literal.push_back(&route);
+  std::stable_sort(by_literal.begin(), by_literal.end(),
+                   [](const Route* a, const Route* b) { return literal_length(*a) > literal_length(*b); });
+  for (const Route* route : by_literal)
+    if (route->method == "GET")
+      Get(route_regex(*route), [rules, route](const httplib::Request& req, httplib::Response& res) {
+        answer(req, res, [&](const ApiRequest& r, ApiResponse& a) { rules.dispatch(*route, r, a); });
+      });
+
+  // Other methods are registered as plain handlers so httplib reads (and bounds)
+  // the body first and the connection stays in step.
+  auto not_allowed = [rules](const httplib::Request& req, httplib::Response& res) {
+    answer(req, res, rules.not_allowed);
+  };
+  // httplib 0.11 answers 400 to a POST/PUT/PATCH/DELETE that has no body headers at
+  // all (it expects one) before any route runs; with no body there is nothing to
+  // read, so such requests are answered here, before that check.
+  set_pre_routing_handler([rules](const httplib::Request& req, httplib::Response& res) {
+    ApiResponse api;
+    auto request = api_request(req);
+    if (rules.guard && rules.guard(request, api)) {
+      into_httplib(std::move(api), res);
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (req.method == "GET" || req.method == "HEAD" || req.has_header("Content-Length") ||
+        req.has_header("Transfer-Encoding"))
+      return httplib::Server::HandlerResponse::Unhandled;
+    rules.not_allowed(request, api);
+    into_httplib(std::move(api), res);
+    return httplib::Server::HandlerResponse::Handled;
+  });
+  Post(".*", not_allowed);
+  Put(".*", not_allowed);
+  Patch(".*", not_allowed);
+  Delete(".*", not_allowed);
+  Options(".*", not_allowed);
+
+  set_error_handler(httplib::Server::HandlerWithResponse([rules](const httplib::Request& req, httplib::Response& res) {
+    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    answer(req, res, rules.on_error);
+    return httplib::Server::HandlerResponse::Handled;
+  }));
+  set_exception_handler([rules](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
+    std::string what = "unknown error";
+    try {
+      if (ep) std::rethrow_exception(ep);
+    } catch (const std::exception& e) {
+      what = e.what();
+    } catch (...) {
+    }
+    answer(req, res, [&](const ApiRequest& r, ApiResponse& a) { rules.on_exception(r, a, what); });
+  });
+  set_logger([rules](const httplib::Request& req, const httplib::Response& res) {
+    if (const auto* ctx = RequestContext::current(); ctx && ctx->internal) return;
+    rules.answered(req.method, req.target, res.status);
+  });
+}
 
 RequestContext* RequestContext::current() { return tls_context; }
 void set_request_context(RequestContext* context) { tls_context = context; }

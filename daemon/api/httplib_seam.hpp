@@ -1,19 +1,18 @@
-// The one place the API's event loops meet cpp-httplib, and why each piece is here.
-// The loops read, time and close connections themselves (HttpConnection, Reactor)
-// and take from httplib only its request parsing, routing and response writing,
-// run on a request already read whole:
-//  - RequestServer: httplib::Server plus a call of its process_request on our
-//    stream. The handlers keep registering on it as on any httplib::Server.
+// The one place the daemon meets cpp-httplib, and why each piece is here. The
+// loops read, time and close connections themselves (HttpConnection, Reactor),
+// and the handlers are functions of the API's own request and response
+// (exchange.hpp); from httplib the daemon takes only its request parsing, routing
+// and response writing, run on a request already read whole:
+//  - RequestServer: httplib::Server, given the routes and the API's rules in the
+//    API's own types (install), plus a call of its process_request on our stream.
 //  - ConnectionStream (a loop connection) and serve_in_memory (a request held in
-//    memory, for ApiServer::answer): the httplib::Stream that process_request reads
-//    and writes.
-//  - write_shared: an httplib content provider's write that the loop turns into
-//    sendfile/splice from a SharedBody's memfd instead of a copy.
+//    memory, for ApiServer::answer and ListReplay's heads): the httplib::Stream that
+//    process_request reads and writes.
+//  - An ApiResponse's shared body goes out through a content provider whose write
+//    the loop turns into sendfile/splice from the memfd instead of a copy; its
+//    event stream through a chunked provider whose first chunk hands the
+//    connection to the loop.
 //  - BlockingPool: httplib's ThreadPool, which parked requests run on.
-// What still takes httplib's types directly: the handlers (handlers.*, events.cpp)
-// and their registration (api_server.cpp) take httplib::Request and Response.
-// ListReplay (list_replay.*) answers the plain list without httplib's parsing but
-// with its bytes: the heads it replays are httplib's, made through serve_in_memory.
 //
 // No public way: httplib (0.11 on bookworm, 0.18 on trixie, and 0.53 upstream
 // alike) runs parsing and routing only from its own listen()/listen_after_bind()
@@ -24,15 +23,19 @@
 // calls. Content providers stop once svr_sock_ is INVALID_SOCKET; the only public
 // ways to set it (bind_to_port, bind_to_any_port) open and bind a TCP socket of
 // httplib's own, so RequestServer's constructor sets the protected member instead.
-// The handlers' per-request context (RequestContext) travels in a thread_local:
+// The per-request context (RequestContext) travels in a thread_local:
 // process_request's setup_request callback sees the Request first, but 0.11's
 // Request has no field of ours to carry it in.
 #pragma once
 
 #include <httplib.h>
 
+#include "api/exchange.hpp"
+
 #include <cstddef>
+#include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -40,6 +43,26 @@ namespace rsd::api {
 
 class SharedBody;  // server_loop.hpp
 struct Connection;  // connection.hpp
+struct Route;       // routes.hpp
+
+// What the API asks of a RequestServer, in its own types.
+struct ServerRules {
+  std::size_t max_payload = 64 * 1024;  // a larger body is refused (413) before it is read
+  int keep_alive_timeout_s = 5;         // only what the Keep-Alive header says: the loop decides
+  // Before routing: answers the request itself when it must not go on (true).
+  std::function<bool(const ApiRequest&, ApiResponse&)> guard;
+  // A routed GET (or HEAD, answered as httplib answers it: the GET's head).
+  std::function<void(const Route&, const ApiRequest&, ApiResponse&)> dispatch;
+  // Any other method, on any path.
+  std::function<void(const ApiRequest&, ApiResponse&)> not_allowed;
+  // What httplib answers on its own (no route, an unparsable or too large request):
+  // `res.status` is set, the rest is to fill.
+  std::function<void(const ApiRequest&, ApiResponse&)> on_error;
+  // A handler threw `what`.
+  std::function<void(const ApiRequest&, ApiResponse&, const std::string& what)> on_exception;
+  // After each answer httplib wrote.
+  std::function<void(std::string_view method, std::string_view target, int status)> answered;
+};
 
 // httplib's request parsing, routing and response writing, run on a request the
 // loop has already read.
@@ -49,6 +72,8 @@ class RequestServer : public httplib::Server {
   // closed (svr_sock_ invalid); this server has none of its own, so it carries
   // the listener's. httplib never uses it otherwise here (no listen(), no stop()).
   explicit RequestServer(int listener_fd) { svr_sock_ = listener_fd; }
+  // Registers `routes` and `rules`; once, before the first request.
+  void install(std::span<const Route> routes, const ServerRules& rules);
   // false: the connection must close after what was written.
   bool serve(httplib::Stream& stream, bool close_connection, bool& connection_closed) {
     return serve_on(*this, stream, close_connection, connection_closed);

@@ -9,14 +9,11 @@
 #include <string>
 #include <string_view>
 
-namespace httplib {
-struct Request;
-struct Response;
-}  // namespace httplib
-
 namespace rsd::api {
 
 class Handlers;
+struct ApiRequest;   // exchange.hpp
+struct ApiResponse;  // exchange.hpp
 
 struct Route {
   std::string_view method;   // GET routes also answer HEAD (httplib does)
@@ -24,7 +21,7 @@ struct Route {
   // any characters but CR and LF, '/' included (a topic-root "realsense/D455_1"
   // names a device too). At most one per pattern.
   std::string_view pattern;
-  void (Handlers::*handler)(const httplib::Request&, httplib::Response&);
+  void (Handlers::*handler)(const ApiRequest&, ApiResponse&);
   // Waits on something outside the daemon (Camera Discovery waits on the camera):
   // served on the blocking pool, never on an event loop that serves everyone else.
   bool blocking = false;
