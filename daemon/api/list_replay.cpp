@@ -62,7 +62,7 @@ std::optional<PlainList> read_plain_list(std::string_view request) {
   if (!request.starts_with(kRequestLine)) return std::nullopt;
   std::string_view rest = request.substr(kRequestLine.size());
   PlainList out;
-  bool seen[5] = {};
+  bool seen[6] = {};
   for (;;) {
     const auto eol = rest.find("\r\n");
     if (eol == std::string_view::npos) return std::nullopt;
@@ -80,11 +80,15 @@ std::optional<PlainList> read_plain_list(std::string_view request) {
     else if (iequals(name, "accept")) which = 2;
     else if (iequals(name, "connection")) which = 3;
     else if (iequals(name, "if-none-match")) which = 4;
+    else if (iequals(name, "accept-encoding")) which = 5;
     else return std::nullopt;
     if (seen[which]) return std::nullopt;
     seen[which] = true;
     if (which == 0) out.host = value;
     if (which == 4) out.if_none_match = value;
+    // Only "identity" (what the project's own clients and Python's http.client
+    // send): any other may have httplib compress the body.
+    if (which == 5 && value != "identity") return std::nullopt;
     if (which == 3) {
       // httplib closes on exactly "close"; any other value is left to it.
       if (value == "close") out.close = true;

@@ -24,10 +24,11 @@ class HostCheck;
 
 // What a plain list request says, when it is one: the request line exactly
 // `GET /v1/devices HTTP/1.1`, CRLF line ends, and only headers that change nothing
-// httplib does (Host, User-Agent, Accept, Connection, If-None-Match), each at most
-// once, in visible ASCII. Anything else is not a plain list (nullopt): a query, a
-// body, another version, Accept-Encoding (httplib may compress), Range, folded or
-// odd bytes. Pure: the unit tests drive it.
+// httplib does (Host, User-Agent, Accept, Connection, If-None-Match, and
+// Accept-Encoding: identity), each at most once, in visible ASCII. Anything else is
+// not a plain list (nullopt): a query, a body, another version, another
+// Accept-Encoding (httplib may compress), Range, folded or odd bytes. Pure: the unit
+// tests drive it.
 struct PlainList {
   std::string_view host;           // "" when none was sent
   std::string_view if_none_match;  // "" when none was sent

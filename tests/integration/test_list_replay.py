@@ -20,6 +20,9 @@ VARIANTS = [
     (b"if-none-match: W/{etag}, \"0\"\r\nConnection: close\r\n", 304),
     (b"If-None-Match: \"0\"\r\n", 200),
     (b"If-None-Match: *\r\n", 304),
+    # What rsdiscovery (C++, rs-discover) and Python's http.client send.
+    (b"Accept: application/json\r\nAccept-Encoding: identity\r\nUser-Agent: rsdiscovery/0.9.0\r\n", 200),
+    (b"Accept-Encoding: identity\r\nAccept: application/json\r\nIf-None-Match: {etag}\r\n", 304),
 ]
 
 
@@ -57,6 +60,7 @@ def test_the_plain_list_is_httplibs_own_bytes(harness, devices):  # noqa: F811
 
 @pytest.mark.parametrize("request_bytes", [
     b"GET /v1/devices HTTP/1.1\r\nHost: localhost\r\nAccept-Encoding: gzip\r\n\r\n",
+    b"GET /v1/devices HTTP/1.1\r\nHost: localhost\r\nAccept-Encoding: gzip, identity\r\n\r\n",
     b"GET /v1/devices HTTP/1.1\r\nHost: localhost\r\nRange: bytes=0-10\r\n\r\n",
     b"GET /v1/devices HTTP/1.1\r\nHost: localhost\r\nHost: localhost\r\n\r\n",
     b"GET /v1/devices HTTP/1.1\r\nHost: localhost\r\nConnection: Close\r\n\r\n",
@@ -65,7 +69,7 @@ def test_the_plain_list_is_httplibs_own_bytes(harness, devices):  # noqa: F811
     b"GET /v1/devices HTTP/1.1\nHost: localhost\n\n",
     b"GET /v1/devices HTTP/1.1\r\nHost: localhost\r\nContent-Length: 2\r\n\r\n{}",
     b"GET /v1/devices HTTP/1.1\r\nHost: local\xffhost\r\n\r\n",
-], ids=["gzip", "range", "two-hosts", "Close", "http10", "head", "bare-lf", "body", "non-ascii"])
+], ids=["gzip", "gzip-identity", "range", "two-hosts", "Close", "http10", "head", "bare-lf", "body", "non-ascii"])
 def test_what_the_replay_cannot_read_exactly_goes_to_httplib(harness, request_bytes):  # noqa: F811
     h = harness()
     h.upsert(*dev(1))

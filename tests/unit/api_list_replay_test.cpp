@@ -21,6 +21,9 @@ TEST(PlainList, APollersRequestIsOne) {
   EXPECT_EQ(p->host, "");
   EXPECT_FALSE(p->close);
   EXPECT_TRUE(read_plain_list("GET /v1/devices HTTP/1.1\r\nConnection: keep-alive\r\n\r\n"));
+  // The project's own clients and Python's http.client say they take no encoding.
+  EXPECT_TRUE(read_plain_list("GET /v1/devices HTTP/1.1\r\nHost: localhost\r\nAccept: application/json\r\n"
+                              "Accept-Encoding: identity\r\nUser-Agent: rsdiscovery/0.9.0\r\n\r\n"));
 }
 
 TEST(PlainList, AnythingThatCouldChangeTheAnswerIsNot) {
@@ -32,6 +35,7 @@ TEST(PlainList, AnythingThatCouldChangeTheAnswerIsNot) {
            "GET  /v1/devices HTTP/1.1\r\n\r\n",                  // odd spacing
            "GET /v1/devices HTTP/1.1\n\n",                       // bare LF
            "GET /v1/devices HTTP/1.1\r\nAccept-Encoding: gzip\r\n\r\n",
+           "GET /v1/devices HTTP/1.1\r\nAccept-Encoding: identity, gzip\r\n\r\n",
            "GET /v1/devices HTTP/1.1\r\nRange: bytes=0-1\r\n\r\n",
            "GET /v1/devices HTTP/1.1\r\nContent-Length: 0\r\n\r\n",
            "GET /v1/devices HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n0\r\n\r\n",
