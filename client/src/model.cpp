@@ -308,6 +308,7 @@ std::string devices_path(const DeviceFilter& filter) {
   if (!filter.serial.empty()) add("serial", filter.serial);
   if (!filter.name.empty()) add("name", filter.name);
   if (!filter.address.empty()) add("address", filter.address);
+  if (!filter.host.empty()) add("host", filter.host);
   return path;
 }
 
