@@ -5,7 +5,6 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <cctype>
 #include <charconv>
 #include <chrono>
 #include <ctime>
@@ -52,12 +51,6 @@ std::optional<SharingHost> sharing_host(const rsdiscovery::Device& d) {
     for (const auto& a : host["addresses"])
       if (a.is_string()) out.addresses.push_back(a.get<std::string>());
   return out;
-}
-
-bool same_host_name(const std::string& a, const std::string& b) {
-  return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](char x, char y) {
-    return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
-  });
 }
 
 std::string device_location(const rsdiscovery::Device& d) {
