@@ -21,7 +21,8 @@ from usbbed import in_umockdev
 sys.path.insert(0, os.path.join(TESTS_DIR, "client"))
 PACKAGE_SRC = os.path.join(os.path.dirname(TESTS_DIR), "client", "python", "src")
 sys.path.insert(0, PACKAGE_SRC)
-from client_util import WatchProcess, rs_discover  # noqa: E402
+from client_util import CLI, WatchProcess, rs_discover  # noqa: E402
+from test_completion import bash_complete  # noqa: E402
 
 import rsdiscovery  # noqa: E402
 
@@ -90,6 +91,9 @@ def test_every_client_selects_another_hosts_cameras_by_its_name(site):
         assert r.returncode == 0, r.stderr
         assert sorted(line.rstrip() for line in r.stdout.splitlines()) == sorted(
             [f"{a1} rig-a {','.join(ADDRESSES['rig-a'])}", f"{b1} rig-b {','.join(ADDRESSES['rig-b'])}", local])
+        env = dict(os.environ, PATH=os.path.dirname(CLI) + os.pathsep + os.environ["PATH"], RS_DISCOVERY_ENDPOINT=ep)
+        assert bash_complete("rs-discover watch --host ", env) == ["rig-a", "rig-b"]
+        assert "--host" in bash_complete("rs-discover watch --h", env)
         r = rs_discover("watch", "--host", "rig-a", "--source", "dds", endpoint=ep)
         assert r.returncode == 2 and "remote-usb" in r.stderr, r.stderr
         r = rs_discover("watch", "--host", "rig-b", "--initial", "--json", "--count", "1", endpoint=ep)
