@@ -123,7 +123,7 @@ void print_event(const rsdiscovery::Event& e, bool json, bool initial, const std
     if (d.domain) line += "  domain " + std::to_string(*d.domain);
     if (d.usb && !d.usb->port_path.empty()) line += "  usb " + d.usb->port_path;
     if (d.server && !d.server->addresses.empty()) line += "  " + device_addresses(d);
-    if (const auto host = sharing_host(d))  // another host's USB camera: whose
+    if (const auto host = rsdiscovery::sharing_host(d))  // another host's USB camera: whose
       line += "  on " + (host->name.empty() ? std::string("?") : host->name) +
               (host->addresses.empty() ? "" : " (" + join(host->addresses, ",") + ")");
     if (d.recovery) line += "  " + paint("(recovery)", color::yellow);

@@ -123,12 +123,6 @@ std::string device_state(const rsdiscovery::Device& d);  // ok, recovery, warnin
 const char* state_color(const std::string& state);
 std::string device_location(const rsdiscovery::Device& d);  // domain or USB port (and its host)
 std::string device_addresses(const rsdiscovery::Device& d);
-// The host whose daemon shares `d` (a remote-usb camera), from its document.
-struct SharingHost {
-  std::string name;
-  std::vector<std::string> addresses;
-};
-std::optional<SharingHost> sharing_host(const rsdiscovery::Device& d);
 std::string device_sources(const rsdiscovery::Device& d);
 // "5s", "3m", "2h", "4d" since an ISO 8601 UTC time; "-" when unreadable.
 std::string age_since(const std::string& iso8601);

@@ -109,7 +109,7 @@ struct UsbInfo {  // where a USB device is plugged
 
 struct RSDISCOVERY_API Device {
   std::string id;                    // stable, URL-safe; the key for get_device()
-  std::string source;                // "dds", "usb" or "remote-usb"; for remote-usb, field("host")
+  std::string source;                // "dds", "usb" or "remote-usb" (see sharing_host())
   std::vector<std::string> sources;  // when one camera is seen both ways; else {source}
   std::optional<int> domain;         // DDS domain (DDS devices)
   std::string topic_root;
@@ -136,6 +136,18 @@ struct RSDISCOVERY_API Device {
 // Builds a Device from a device document (JSON object text). Throws
 // Error(malformed_reply) when it is not one.
 RSDISCOVERY_API Device parse_device(const std::string& json_text);
+
+// The host whose daemon shares a remote-usb camera (another host's USB camera): the
+// name and addresses it announces, and its daemon's DDS participant ("" when not said).
+struct SharingHost {
+  std::string name;
+  std::vector<std::string> addresses;
+  std::string participant_guid;
+};
+// The host of a remote-usb device; nothing for any other (also where its document has
+// no readable "host": then a value with an empty name). A function rather than a
+// member, so that Device keeps the layout programs built against librsdiscovery0 have.
+RSDISCOVERY_API std::optional<SharingHost> sharing_host(const Device& device);
 
 struct DomainStatus {
   int domain = 0;
