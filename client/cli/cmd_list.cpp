@@ -1,7 +1,6 @@
 // rs-discover list: the devices the daemon knows now, as a table or JSON.
 #include "common.hpp"
 
-#include <algorithm>
 #include <chrono>
 
 namespace rsdiscover {
@@ -10,24 +9,6 @@ namespace {
 int run(const ParsedArgs& args) {
   if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
   auto filter = filter_from(args);
-  // --host: another host's cameras by its name. The daemon selects remote-usb; the
-  // name is matched here (the library's DeviceFilter has no host: a new member
-  // would change its exported layout).
-  const std::string host = args.has("host") ? args.get("host") : std::string();
-  if (args.has("host")) {
-    if (host.empty()) throw UsageError("--host wants a host name");
-    if (!filter.source.empty() && filter.source != "remote-usb")
-      throw UsageError("--host selects another host's cameras (remote-usb), not --source " + filter.source);
-    filter.source = "remote-usb";
-  }
-  const auto shown = [&](const rsdiscovery::Device& d) {
-    if (host.empty()) return true;
-    const auto h = sharing_host(d);
-    return h && same_host_name(h->name, host);
-  };
-  const auto keep_shown = [&](std::vector<rsdiscovery::Device>& v) {
-    std::erase_if(v, [&](const rsdiscovery::Device& d) { return !shown(d); });
-  };
   std::optional<Template> format;  // a bad template: exit 2 before asking the daemon
   if (args.has("format")) format.emplace(args.get("format"), device_fields());
   int wait = args.get_int("wait", 0, 0, 100000);
@@ -45,18 +26,16 @@ int run(const ParsedArgs& args) {
     auto got = client.wait_until(
         filter,
         [&](const std::vector<rsdiscovery::Device>& v) {
-          const auto n = static_cast<std::size_t>(std::count_if(v.begin(), v.end(), shown));
-          if (n >= static_cast<std::size_t>(wait)) return true;
-          if (said != n)
+          if (v.size() >= static_cast<std::size_t>(wait)) return true;
+          if (said != v.size())
             std::fprintf(stderr, "rs-discover: waiting up to %gs for %d device%s (%zu present)\n", timeout, wait,
-                         wait == 1 ? "" : "s", n);
-          said = n;
+                         wait == 1 ? "" : "s", v.size());
+          said = v.size();
           return false;
         },
         ms);
     if (!got) {
       auto now = client.list_devices(filter);
-      keep_shown(now);
       std::fprintf(stderr, "rs-discover: timed out after %gs waiting for %d device%s (%zu present)\n", timeout,
                    wait, wait == 1 ? "" : "s", now.size());
       return kNotFound;
@@ -76,7 +55,6 @@ int run(const ParsedArgs& args) {
     complete = list.complete;
     generation = list.generation;
   }
-  keep_shown(devices);
   if (!complete) warn_incomplete();
 
   if (args.has("json")) {
@@ -124,7 +102,7 @@ int run(const ParsedArgs& args) {
 const Command kListCommand = {
     "list",
     "list the cameras the daemon knows now",
-    "list [--json | -q | -w | --format TEMPLATE] [--no-headers] [-d N]... [-p LINE] [-s dds|usb]\n"
+    "list [--json | -q | -w | --format TEMPLATE] [--no-headers] [-d N]... [-p LINE] [-s dds|usb|remote-usb]\n"
     "       [--serial SERIAL] [-n TEXT] [-a ADDR] [--host NAME] [--wait N [--timeout S]]\n"
     "       [--no-wait-complete | --complete-timeout S]",
     "List the cameras rs-discoveryd knows now: one line each, with where it is (DDS domain or\n"
@@ -142,7 +120,6 @@ const Command kListCommand = {
         {"json", 'j', nullptr, "print JSON: {\"complete\": true, \"devices\": [...], \"generation\": N}, as the API gives it"},
         {"quiet", 'q', nullptr, "print only the device ids, one a line"},
         {"wide", 'w', nullptr, "add the PRODUCT-ID, FW and ID columns"},
-        {"host", 0, "NAME", "only the USB cameras the daemon on host NAME shares (remote-usb; ignoring case)"},
         kFormatOption,
         kNoHeadersOption,
         {"wait", 0, "N", "wait until at least N matching devices are present"},

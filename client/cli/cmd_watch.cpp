@@ -123,6 +123,9 @@ void print_event(const rsdiscovery::Event& e, bool json, bool initial, const std
     if (d.domain) line += "  domain " + std::to_string(*d.domain);
     if (d.usb && !d.usb->port_path.empty()) line += "  usb " + d.usb->port_path;
     if (d.server && !d.server->addresses.empty()) line += "  " + device_addresses(d);
+    if (const auto host = rsdiscovery::sharing_host(d))  // another host's USB camera: whose
+      line += "  on " + (host->name.empty() ? std::string("?") : host->name) +
+              (host->addresses.empty() ? "" : " (" + join(host->addresses, ",") + ")");
     if (d.recovery) line += "  " + paint("(recovery)", color::yellow);
     if (initial) line += "  " + paint("(present at start)", color::dim);
     else if (e.synthetic) line += "  " + paint("(re-listed)", color::dim);
@@ -241,8 +244,8 @@ int run(const ParsedArgs& args) {
 const Command kWatchCommand = {
     "watch",
     "print the changes as they happen",
-    "watch [--json] [--initial] [-d N]... [-p LINE] [-s dds|usb] [--serial SERIAL] [-n TEXT] [-a ADDR]\n"
-    "       [-c N] [-t S]",
+    "watch [--json] [--initial] [-d N]... [-p LINE] [-s dds|usb|remote-usb] [--serial SERIAL] [-n TEXT]\n"
+    "       [-a ADDR] [--host NAME] [-c N] [-t S]",
     "Print one line per change of the device table (added, changed, removed) until interrupted,\n"
     "with the local date and time; a 'changed' line says what changed (fw-version 5.16.0.1 ->\n"
     "5.16.1.0, now served by NAME (ADDRESS), entered recovery mode). With --initial the\n"

@@ -59,6 +59,8 @@ inline constexpr OptionSpec kSerialOption = {"serial", 0, "SERIAL", "only the de
 inline constexpr OptionSpec kNameOption = {"name", 'n', "TEXT", "only devices whose name contains TEXT (any case)"};
 inline constexpr OptionSpec kAddressOption = {"address", 'a', "ADDR",
                                               "only network cameras whose server has this address"};
+inline constexpr OptionSpec kHostOption = {
+    "host", 0, "NAME", "only the USB cameras the daemon on host NAME shares (remote-usb; any case)"};
 // `own` with the device filters above in front: list's and watch's options.
 std::vector<OptionSpec> with_device_filters(std::vector<OptionSpec> own);
 inline constexpr OptionSpec kNoHeadersOption = {"no-headers", 'H', nullptr, "print the table without its header line"};
@@ -121,13 +123,6 @@ std::string device_state(const rsdiscovery::Device& d);  // ok, recovery, warnin
 const char* state_color(const std::string& state);
 std::string device_location(const rsdiscovery::Device& d);  // domain or USB port (and its host)
 std::string device_addresses(const rsdiscovery::Device& d);
-// The host whose daemon shares `d` (a remote-usb camera), from its document.
-struct SharingHost {
-  std::string name;
-  std::vector<std::string> addresses;
-};
-std::optional<SharingHost> sharing_host(const rsdiscovery::Device& d);
-bool same_host_name(const std::string& a, const std::string& b);  // ignoring ASCII case
 std::string device_sources(const rsdiscovery::Device& d);
 // "5s", "3m", "2h", "4d" since an ISO 8601 UTC time; "-" when unreadable.
 std::string age_since(const std::string& iso8601);

@@ -87,6 +87,14 @@ rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args) {
   f.source = args.get("source");
   if (!f.source.empty() && f.source != "dds" && f.source != "usb" && f.source != "remote-usb")
     throw UsageError("--source wants dds, usb or remote-usb, not '" + f.source + "'");
+  // --host: another host's cameras by its name; the daemon matches it (?host=) and
+  // selects remote-usb with it, so another source could only answer nothing.
+  if (args.has("host")) {
+    f.host = args.get("host");
+    if (f.host.empty()) throw UsageError("--host wants a host name");
+    if (!f.source.empty() && f.source != "remote-usb")
+      throw UsageError("--host selects another host's cameras (remote-usb), not --source " + f.source);
+  }
   return f;
 }
 

@@ -18,7 +18,7 @@ void check_sharing(Report& r, const std::vector<rsdiscovery::Device>& devices,
   };
   std::map<std::string, Sharer> sharers;  // by host name, as the sharer announces it
   for (const auto& d : devices) {
-    const auto host = sharing_host(d);
+    const auto host = rsdiscovery::sharing_host(d);
     if (!host) continue;
     auto& s = sharers[host->name];
     ++s.cameras;

@@ -14,7 +14,8 @@ const std::vector<std::string>& device_fields() {
       "domain", "recovery", "warnings", "merged-into", "first-seen", "last-seen", "server",
       "server.participant-name", "server.participant-guid", "server.writer-guid", "server.addresses", "usb",
       "usb.bus", "usb.address", "usb.port-path", "usb.speed", "usb.speed-mbps", "usb.vid", "usb.pid",
-      "usb.usb-version", "usb.sysfs-path", "state", "location", "address", "age"};
+      "usb.usb-version", "usb.sysfs-path", "host", "host.name", "host.addresses", "host.participant-guid", "state",
+      "location", "address", "age"};
   return fields;
 }
 

@@ -22,7 +22,8 @@ const std::vector<OptionSpec> kCommonOptions = {
 };
 
 std::vector<OptionSpec> with_device_filters(std::vector<OptionSpec> own) {
-  own.insert(own.begin(), {kDomainOption, kProductLineOption, kSourceOption, kSerialOption, kNameOption, kAddressOption});
+  own.insert(own.begin(), {kDomainOption, kProductLineOption, kSourceOption, kSerialOption, kNameOption, kAddressOption,
+                            kHostOption});
   return own;
 }
 

@@ -2,10 +2,7 @@
 // location, addresses, sources, age), ISO 8601 times, and tables like `docker ps`.
 #include "common.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
-#include <cctype>
 #include <charconv>
 #include <chrono>
 #include <ctime>
@@ -42,24 +39,6 @@ const char* state_color(const std::string& state) {
   return color::red;
 }
 
-std::optional<SharingHost> sharing_host(const rsdiscovery::Device& d) {
-  if (d.source != "remote-usb") return std::nullopt;
-  const auto host = nlohmann::json::parse(d.field("host"), nullptr, false);
-  SharingHost out;
-  if (!host.is_object()) return out;
-  if (host.contains("name") && host["name"].is_string()) out.name = host["name"].get<std::string>();
-  if (host.contains("addresses") && host["addresses"].is_array())
-    for (const auto& a : host["addresses"])
-      if (a.is_string()) out.addresses.push_back(a.get<std::string>());
-  return out;
-}
-
-bool same_host_name(const std::string& a, const std::string& b) {
-  return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](char x, char y) {
-    return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
-  });
-}
-
 std::string device_location(const rsdiscovery::Device& d) {
   std::vector<std::string> parts;
   if (d.domain) parts.push_back(std::to_string(*d.domain));
@@ -68,12 +47,13 @@ std::string device_location(const rsdiscovery::Device& d) {
     if (port.empty() && d.usb->bus) port = "bus " + std::to_string(*d.usb->bus);
     parts.push_back("usb " + (port.empty() ? std::string("?") : port));
   }
-  if (const auto host = sharing_host(d)) parts.push_back("on " + (host->name.empty() ? std::string("?") : host->name));
+  if (const auto host = rsdiscovery::sharing_host(d))
+    parts.push_back("on " + (host->name.empty() ? std::string("?") : host->name));
   return parts.empty() ? "-" : join(parts, ", ");
 }
 
 std::string device_addresses(const rsdiscovery::Device& d) {
-  if (const auto host = sharing_host(d)) return host->addresses.empty() ? "-" : join(host->addresses, ",");
+  if (const auto host = rsdiscovery::sharing_host(d)) return host->addresses.empty() ? "-" : join(host->addresses, ",");
   if (!d.server || d.server->addresses.empty()) return "-";
   return join(d.server->addresses, ",");
 }

@@ -52,7 +52,8 @@ _rs_discover() {
         --source | -s) COMPREPLY=($(compgen -W "dds usb remote-usb" -- "$cur")); return ;;
         --color) COMPREPLY=($(compgen -W "auto always never" -- "$cur")); return ;;
         --serial) COMPREPLY=($(compgen -W "$(_rs_discover_daemon --format '{serial}')" -- "$cur")); return ;;
-        --domain | -d | --product-line | -p | --name | -n | --address | -a | --host | --format | -f | --timeout | -t | \
+        --host) COMPREPLY=($(compgen -W "$(_rs_discover_daemon --source remote-usb --format '{host.name}' | sort -u)" -- "$cur")); return ;;
+        --domain | -d | --product-line | -p | --name | -n | --address | -a | --format | -f | --timeout | -t | \
             --wait | --count | -c | --complete-timeout | --last-event-id | --endpoint)
             return ;;
     esac

@@ -308,6 +308,7 @@ std::string devices_path(const DeviceFilter& filter) {
   if (!filter.serial.empty()) add("serial", filter.serial);
   if (!filter.name.empty()) add("name", filter.name);
   if (!filter.address.empty()) add("address", filter.address);
+  if (!filter.host.empty()) add("host", filter.host);
   return path;
 }
 
@@ -324,6 +325,19 @@ Description parse_description(const std::string& json_text) {
   auto doc = nlohmann::json::parse(json_text, nullptr, false);
   if (doc.is_discarded()) throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: not JSON");
   return detail::description_from_json(doc);
+}
+
+std::optional<SharingHost> sharing_host(const Device& device) {
+  if (device.source != "remote-usb") return std::nullopt;
+  SharingHost out;
+  const auto doc = nlohmann::json::parse(device.json, nullptr, false);
+  if (!doc.is_object()) return out;
+  auto host = rsd::model::device_from_json(doc).host;
+  if (!host) return out;
+  out.name = std::move(host->name);
+  out.addresses = std::move(host->addresses);
+  out.participant_guid = host->participant_guid.value_or("");
+  return out;
 }
 
 Device parse_device(const std::string& json_text) {

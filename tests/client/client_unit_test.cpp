@@ -490,6 +490,27 @@ TEST(Filter, BuildsTheQueryWithEncoding) {
   EXPECT_EQ(detail::devices_path(more), "/v1/devices?domain=1&domain=2&serial=ab12&name=D455%20&address=192.0.2.2");
 }
 
+TEST(Filter, HostSelectsAnotherHostsCameras) {
+  DeviceFilter f;
+  f.host = "rig pc";
+  EXPECT_EQ(detail::devices_path(f), "/v1/devices?host=rig%20pc");
+}
+
+TEST(Device, SharingHostOfARemoteUsbCameraOnly) {
+  const auto remote = parse_device(R"({"id":"usb-1.rig","source":"remote-usb","sources":["remote-usb"],"name":"x",
+    "host":{"name":"rig","addresses":["192.0.2.1","198.51.100.1"],"participant-guid":"01.02"}})");
+  const auto host = sharing_host(remote);
+  ASSERT_TRUE(host);
+  EXPECT_EQ(host->name, "rig");
+  EXPECT_EQ(host->addresses, (std::vector<std::string>{"192.0.2.1", "198.51.100.1"}));
+  EXPECT_EQ(host->participant_guid, "01.02");
+  EXPECT_FALSE(sharing_host(parse_device(R"({"id":"usb-1","source":"usb","name":"x"})")));
+  // A remote-usb camera whose host is not readable still is one: a value, no name.
+  const auto unnamed = sharing_host(parse_device(R"({"id":"usb-2.x","source":"remote-usb","name":"x"})"));
+  ASSERT_TRUE(unnamed);
+  EXPECT_EQ(unnamed->name, "");
+}
+
 ErrorCode code_of(const std::function<void()>& f) {
   try {
     f();

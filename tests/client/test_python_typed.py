@@ -248,17 +248,22 @@ def test_mypy_strict_is_clean_on_the_package_and_types_its_users(tmp_path):
                     "    with rsdiscovery.Client() as c:\n"
                     "        return [d.serial or d.id for d in c.list_devices(domain=domains)]\n\n\n"
                     "def servers() -> list[str]:\n"
-                    "    return [p.name for p in rsdiscovery.participants() if p.devices > 0]\n")
+                    "    return [p.name for p in rsdiscovery.participants() if p.devices > 0]\n\n\n"
+                    "def shared(host: str) -> list[tuple[str, tuple[str, ...]]]:\n"
+                    "    return [(d.host.name, d.host.addresses) for d in rsdiscovery.list_devices(host=host)\n"
+                    "            if d.host is not None]\n")
     r = mypy(tmp_path, str(good))
     assert r.returncode == 0, r.stdout + r.stderr
     bad = tmp_path / "bad.py"
     bad.write_text("import rsdiscovery\n\n"
                    "dev = rsdiscovery.get_device('x')\n"
                    "length: int = len(dev.serial)\n"
-                   "dev.domain = 3\n")
+                   "dev.domain = 3\n"
+                   "sharer: str = dev.host.name\n")
     r = mypy(tmp_path, str(bad))
     assert r.returncode == 1, r.stdout + r.stderr
     errors = [line for line in r.stdout.splitlines() if ": error:" in line]
-    assert len(errors) == 2, r.stdout
+    assert len(errors) == 3, r.stdout
     assert errors[0].startswith("bad.py:4: error:") and "str | None" in errors[0], r.stdout  # serial may be None
     assert errors[1].startswith("bad.py:5: error:") and "read-only" in errors[1], r.stdout  # frozen
+    assert errors[2].startswith("bad.py:6: error:") and "None" in errors[2], r.stdout  # host None unless shared

@@ -109,7 +109,7 @@ struct UsbInfo {  // where a USB device is plugged
 
 struct RSDISCOVERY_API Device {
   std::string id;                    // stable, URL-safe; the key for get_device()
-  std::string source;                // "dds" or "usb"
+  std::string source;                // "dds", "usb" or "remote-usb" (see sharing_host())
   std::vector<std::string> sources;  // when one camera is seen both ways; else {source}
   std::optional<int> domain;         // DDS domain (DDS devices)
   std::string topic_root;
@@ -136,6 +136,18 @@ struct RSDISCOVERY_API Device {
 // Builds a Device from a device document (JSON object text). Throws
 // Error(malformed_reply) when it is not one.
 RSDISCOVERY_API Device parse_device(const std::string& json_text);
+
+// The host whose daemon shares a remote-usb camera (another host's USB camera): the
+// name and addresses it announces, and its daemon's DDS participant ("" when not said).
+struct SharingHost {
+  std::string name;
+  std::vector<std::string> addresses;
+  std::string participant_guid;
+};
+// The host of a remote-usb device; nothing for any other (also where its document has
+// no readable "host": then a value with an empty name). A function rather than a
+// member, so that Device keeps the layout programs built against librsdiscovery0 have.
+RSDISCOVERY_API std::optional<SharingHost> sharing_host(const Device& device);
 
 struct DomainStatus {
   int domain = 0;
@@ -231,17 +243,28 @@ struct DeviceList {
   bool complete = true;
 };
 
+// DeviceFilter and WatchOptions (which holds one) grew `host` with the soname kept:
+// they live in an inline namespace, so the calls that take them have new symbols, and
+// the library still exports the earlier ones for programs built against the earlier
+// layout (client/src/abi0_compat.cpp). Source code names them as before.
+inline namespace filters2 {
+
 // Filters of GET /v1/devices and /v1/events. Empty members do not filter. The daemon
 // applies them (values compare case-insensitively); the library never filters again.
 struct RSDISCOVERY_API DeviceFilter {
   std::optional<int> domain;
   std::vector<int> domains;  // more domains: a device on any of these and `domain` matches
   std::string product_line;
-  std::string source;   // "dds" or "usb"
+  std::string source;   // "dds", "usb" or "remote-usb" (another host's USB camera)
   std::string serial;   // exactly this serial, ignoring case
   std::string name;     // a name containing this, ignoring case ("d455")
-  std::string address;  // a network camera whose server has this address
+  std::string address;  // a camera whose server (or, remote-usb, whose host) has this address
+  // The USB cameras the daemon on the host of this name shares (remote-usb; the name
+  // as that host announces it, field "host" of the device document), ignoring case.
+  std::string host;
 };
+
+}  // namespace filters2
 
 struct Event {
   enum class Type { added, changed, removed };
@@ -261,6 +284,8 @@ struct WatchStatus {
   bool connected = false;
   std::string message;  // why it disconnected, or where it connected
 };
+
+inline namespace filters2 {
 
 struct WatchOptions {
   // Report every device present when the watch starts as a synthetic `added`.
@@ -286,6 +311,8 @@ struct WatchOptions {
   // push-style one takes its own on_status). Runs on the library's thread.
   std::function<void(const WatchStatus&)> on_status;
 };
+
+}  // namespace filters2
 
 // Connection state changes of a watch, for logging; never required.
 class WatchCore;  // the library's insides

@@ -32,7 +32,7 @@ from ._client import (
     wait_for,
     watch,
 )
-from ._model import Device, DomainStatus, Health, Interface, Participant, Server, Usb, UsbStatus
+from ._model import Device, DomainStatus, Health, Host, Interface, Participant, Server, Usb, UsbStatus
 from ._open import DeviceGone, NotANetworkCamera, NotReady, OpenError, Pyrealsense2Missing
 from ._query import Domains
 
@@ -49,6 +49,7 @@ __all__ = [
     "Event",
     "HTTPError",
     "Health",
+    "Host",
     "Interface",
     "MalformedReply",
     "NotANetworkCamera",

@@ -15,6 +15,8 @@ def _filters(p: argparse.ArgumentParser) -> None:
                    help="only this DDS domain (0-232); repeat for several")
     p.add_argument("--product-line", help="only this product line, e.g. D400 (any case)")
     p.add_argument("--source", choices=["dds", "usb", "remote-usb"], type=str.lower, help="only cameras seen by this source")
+    p.add_argument("--host", metavar="NAME",
+                   help="only the USB cameras the daemon on host NAME shares (remote-usb; any case)")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -60,7 +62,7 @@ def run(argv: Optional[List[str]] = None) -> int:
     args = _parser().parse_args(argv)
     try:
         client = Client(args.endpoint)
-        filters: Dict[str, Any] = {k: getattr(args, k, None) for k in ("domain", "product_line", "source")}
+        filters: Dict[str, Any] = {k: getattr(args, k, None) for k in ("domain", "product_line", "source", "host")}
         if args.command == "list":
             devices = client.list_devices(**filters)
             _print(args, [d.raw for d in devices], devices)

@@ -169,13 +169,15 @@ class Client:
 
     def list_devices(self, domain: Domains = None, product_line: Optional[str] = None,
                      source: Optional[str] = None, *, serial: Optional[str] = None, name: Optional[str] = None,
-                     address: Optional[str] = None) -> List[Device]:
+                     address: Optional[str] = None, host: Optional[str] = None) -> List[Device]:
         """The devices the daemon knows now, as :class:`Device`, optionally filtered: DDS
         ``domain`` (one id, or several: ``domain=[1, 2]``, as ``rs-discover list -d 1 -d 2``),
-        product line, ``dds``/``usb``, serial, a part of the name, an address of the camera's
-        server; the daemon filters, values in any case. Waits for the complete table first
+        product line, ``dds``/``usb``/``remote-usb``, serial, a part of the name, an address of
+        the camera's server (or of the host sharing it), ``host``: the USB cameras the daemon
+        on the host of this name shares (remote-usb, :attr:`Device.host`); the daemon
+        filters, values in any case. Waits for the complete table first
         (``complete_timeout``)."""
-        return self._list((domain, product_line, source, serial, name, address), self._complete_deadline())
+        return self._list((domain, product_line, source, serial, name, address, host), self._complete_deadline())
 
     def _list(self, filters: Tuple[Any, ...], deadline: float) -> List[Device]:
         path = "/v1/devices" + _query(*filters)
@@ -289,7 +291,8 @@ class Client:
     def watch(self, initial: bool = False, last_event_id: Optional[int] = None, reconnect: bool = True,
               domain: Domains = None, product_line: Optional[str] = None,
               source: Optional[str] = None, complete_timeout: float = 10.0, *, serial: Optional[str] = None,
-              name: Optional[str] = None, address: Optional[str] = None) -> Iterator[Event]:
+              name: Optional[str] = None, address: Optional[str] = None,
+              host: Optional[str] = None) -> Iterator[Event]:
         """A generator of :class:`Event` that runs until closed (``break`` out, or ``close()``).
 
         It resumes by itself after a disconnect or a daemon restart, reporting what
@@ -301,13 +304,13 @@ class Client:
         """
         w = Watcher(self, initial=initial, last_event_id=last_event_id, reconnect=reconnect, domain=domain,
                     product_line=product_line, source=source, complete_timeout=complete_timeout, serial=serial,
-                    name=name, address=address)
+                    name=name, address=address, host=host)
         return _generate(w)
 
     def wait_for(self, predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0,
                  count: int = 1, domain: Domains = None, product_line: Optional[str] = None,
                  source: Optional[str] = None, *, serial: Optional[str] = None, name: Optional[str] = None,
-                 address: Optional[str] = None) -> Device:
+                 address: Optional[str] = None, host: Optional[str] = None) -> Device:
         """Waits until ``count`` devices matching the filters and ``predicate`` are present;
         returns the first of them. Raises :class:`TimeoutError` (the built-in) when
         ``timeout`` seconds pass first. Like :meth:`list_devices` it looks at the complete
@@ -318,7 +321,7 @@ class Client:
         if isinstance(count, bool) or not isinstance(count, int) or count < 1:
             raise ValueError(f"count must be a whole number >= 1, not {count!r}")
         domain = _domains(domain) or None  # once: an iterator is empty the second time
-        filters = (domain, product_line, source, serial, name, address)
+        filters = (domain, product_line, source, serial, name, address, host)
         _check_filters(*filters)
 
         def hit(devices: List[Device]) -> List[Device]:
@@ -331,7 +334,7 @@ class Client:
             return now[0]
         with Watcher(self, domain=domain, product_line=product_line, source=source,
                      complete_timeout=max(complete_by - time.monotonic(), 0), serial=serial, name=name,
-                     address=address) as w:
+                     address=address, host=host) as w:
             while True:
                 now = hit(w.devices())
                 if len(now) >= count:
@@ -348,12 +351,12 @@ class Client:
 def list_devices(domain: Domains = None, product_line: Optional[str] = None, source: Optional[str] = None,
                  endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0, *,
                  serial: Optional[str] = None, name: Optional[str] = None,
-                 address: Optional[str] = None) -> List[Device]:
+                 address: Optional[str] = None, host: Optional[str] = None) -> List[Device]:
     """The devices the daemon knows now (see :meth:`Client.list_devices`; ``complete_timeout=0``
     does not wait for the daemon's first discovery)."""
     return Client(endpoint, complete_timeout=complete_timeout).list_devices(domain, product_line, source,
                                                                             serial=serial, name=name,
-                                                                            address=address)
+                                                                            address=address, host=host)
 
 
 def get_device(device_id: str, endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0) -> Device:
@@ -386,17 +389,19 @@ def health(endpoint: "Endpoint | str | None" = None) -> Health:
 def wait_for(predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0, count: int = 1,
              domain: Domains = None, product_line: Optional[str] = None, source: Optional[str] = None,
              endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0, *,
-             serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None) -> Device:
+             serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None,
+             host: Optional[str] = None) -> Device:
     """Waits for a device; raises :class:`TimeoutError` (see :meth:`Client.wait_for`)."""
     return Client(endpoint, complete_timeout=complete_timeout).wait_for(predicate, timeout, count, domain,
                                                                         product_line, source, serial=serial,
-                                                                        name=name, address=address)
+                                                                        name=name, address=address, host=host)
 
 
 def watch(initial: bool = False, last_event_id: Optional[int] = None, reconnect: bool = True,
           domain: Domains = None, product_line: Optional[str] = None, source: Optional[str] = None,
           endpoint: "Endpoint | str | None" = None, complete_timeout: float = 10.0, *,
-          serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None) -> Iterator[Event]:
+          serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None,
+          host: Optional[str] = None) -> Iterator[Event]:
     """A resumable generator of events (see :meth:`Client.watch`)."""
     return Client(endpoint).watch(initial, last_event_id, reconnect, domain, product_line, source,
-                                  complete_timeout, serial=serial, name=name, address=address)
+                                  complete_timeout, serial=serial, name=name, address=address, host=host)

@@ -10,7 +10,7 @@ from typing import Any, ItemsView, KeysView, Mapping, Optional, Tuple, Type, Typ
 
 from ._errors import MalformedReply
 
-__all__ = ["Device", "Server", "Usb", "Participant", "DomainStatus", "Interface", "Health", "UsbStatus"]
+__all__ = ["Device", "Server", "Usb", "Host", "Participant", "DomainStatus", "Interface", "Health", "UsbStatus"]
 
 _T = TypeVar("_T")
 
@@ -154,12 +154,34 @@ class Usb(_Document):
 
 
 @dataclass(frozen=True)
+class Host(_Document):
+    """The host whose daemon shares a ``remote-usb`` camera (it runs with share-usb): its
+    ``name`` and the ``addresses`` its daemon joined the DDS domain on, as it announces them;
+    ``participant_guid`` is that daemon's DDS participant, where the daemon says it."""
+
+    name: str
+    addresses: Tuple[str, ...]
+    participant_guid: Optional[str]
+    raw: Mapping[str, Any] = field(repr=False)
+
+    @staticmethod
+    def from_json(doc: Any) -> "Host":
+        r = _Read(doc, "a device's host")
+        return Host(name=r.req("name", str), addresses=r.strings("addresses"),
+                    participant_guid=r.opt("participant-guid", str), raw=r.doc)
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.addresses))
+
+
+@dataclass(frozen=True)
 class Device(_Document):
     """A camera as rs-discoveryd knows it (``GET /v1/devices``, ``/v1/devices/{id}``, events).
 
     Attributes are the JSON fields in snake_case (``topic-root`` -> ``topic_root``); those
     the daemon does not send for this camera are None (``domain``, ``topic_root`` and
-    ``server`` for a USB camera; ``usb`` for a network one), or empty (``warnings``).
+    ``server`` for a USB camera; ``usb`` for a network one; ``host`` for every camera but
+    another host's USB one, ``source`` ``remote-usb``), or empty (``warnings``).
     ``sources`` holds every source that sees the camera (``("dds", "usb")`` for one seen both
     ways); ``first_seen`` and ``last_seen`` are RFC 3339 UTC strings, as sent. ``raw`` is the
     document exactly as the daemon sent it: the camera's whole realdds device-info is in it,
@@ -184,6 +206,8 @@ class Device(_Document):
     last_seen: str
     merged_into: Optional[str]
     raw: Mapping[str, Any] = field(repr=False)
+    # Last and defaulted: a Device made by keyword or position as before it stays valid.
+    host: Optional[Host] = None
 
     @staticmethod
     def from_json(doc: Any) -> "Device":
@@ -195,6 +219,7 @@ class Device(_Document):
         source = r.get("source", str, "")
         server = doc.get("server")
         usb = doc.get("usb")
+        host = doc.get("host")
         return Device(id=r.req("id", str), name=r.get("name", str, ""), source=source,
                       sources=r.strings("sources") or ((source,) if source else ()), serial=r.opt("serial", str),
                       product_line=r.opt("product-line", str), product_id=r.opt("product-id", str),
@@ -203,7 +228,8 @@ class Device(_Document):
                       server=Server.from_json(server) if server is not None else None,
                       usb=Usb.from_json(usb) if usb is not None else None, warnings=r.strings("warnings"),
                       first_seen=r.get("first-seen", str, ""), last_seen=r.get("last-seen", str, ""),
-                      merged_into=r.opt("merged-into", str), raw=r.doc)
+                      merged_into=r.opt("merged-into", str), raw=r.doc,
+                      host=Host.from_json(host) if host is not None else None)
 
     def __hash__(self) -> int:
         return hash((self.id, self.last_seen))

@@ -27,7 +27,8 @@ def _domains(domain: Domains) -> Tuple[int, ...]:
 
 
 def _check_filters(domain: Domains, product_line: Optional[str], source: Optional[str],
-                   serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None) -> None:
+                   serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None,
+                   host: Optional[str] = None) -> None:
     """Bad filter arguments are the caller's mistake: a ValueError at once, never a
     request the daemon would answer with 400 (or, worse, one that filters nothing)."""
     _domains(domain)
@@ -35,9 +36,13 @@ def _check_filters(domain: Domains, product_line: Optional[str], source: Optiona
         raise ValueError(f"product_line must be a non-empty string such as 'D400', not {product_line!r}")
     if source is not None and (not isinstance(source, str) or source.lower() not in ("dds", "usb", "remote-usb")):
         raise ValueError(f"source must be 'dds', 'usb' or 'remote-usb', not {source!r}")
-    for key, value in (("serial", serial), ("name", name), ("address", address)):
+    for key, value in (("serial", serial), ("name", name), ("address", address), ("host", host)):
         if value is not None and (not isinstance(value, str) or not value.strip()):
             raise ValueError(f"{key} must be a non-empty string, not {value!r}")
+    # The daemon's ?host= selects remote-usb cameras only: with another source it would
+    # answer an empty list, which reads as "no such camera" rather than as the mistake.
+    if host is not None and source is not None and source.lower() != "remote-usb":
+        raise ValueError(f"host selects another host's cameras (source 'remote-usb'), not source {source!r}")
 
 
 def _check_seconds(name: str, value: Any, allow_zero: bool = True) -> None:
@@ -46,13 +51,14 @@ def _check_seconds(name: str, value: Any, allow_zero: bool = True) -> None:
 
 
 def _query(domain: Domains, product_line: Optional[str], source: Optional[str],
-           serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None) -> str:
+           serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None,
+           host: Optional[str] = None) -> str:
     """The filters as the daemon takes them (it filters; the package never filters again)."""
     domains = _domains(domain)  # once: an iterator is empty the second time
-    _check_filters(domains or None, product_line, source, serial, name, address)
+    _check_filters(domains or None, product_line, source, serial, name, address, host)
     q: List[Tuple[str, str]] = [("domain", str(d)) for d in domains]
     for key, value in (("product-line", product_line), ("source", source), ("serial", serial), ("name", name),
-                       ("address", address)):
+                       ("address", address), ("host", host)):
         if value:
             q.append((key, value))
     return ("?" + urllib.parse.urlencode(q)) if q else ""
