@@ -31,6 +31,14 @@ pytestmark = pytest.mark.skipif(not in_umockdev(), reason="run under umockdev-wr
 ADDRESSES = {"rig-a": ["192.0.2.10", "198.51.100.10"], "rig-b": ["192.0.2.11"]}
 
 
+def event_streams(d):
+    """The daemon's open event streams (rsd_event_streams in /metrics)."""
+    status, _, body = d.request("/metrics")
+    assert status == 200
+    (line,) = [x for x in body.decode().splitlines() if x.startswith("rsd_event_streams ")]
+    return int(float(line.split()[1]))
+
+
 class Sharer(JsonLinesProcess):
     """Another daemon's shares, written one camera at a time on the daemon's domain."""
 
@@ -105,6 +113,9 @@ def test_every_client_selects_another_hosts_cameras_by_its_name(site):
         cli = WatchProcess(ep, "--host", "rig-b")
         cli_json = WatchProcess(ep, "--host", "rig-b", "--json")
         try:
+            # The watches report what happens after they connect: share nothing before
+            # all three streams are open (a loaded machine starts a process slowly).
+            wait_for(lambda: event_streams(d) == 3, timeout=20, what="the three watches connected")
             a2 = sharer.share("rig-a", "100000000002")  # before rig-b's: the watch of rig-b would see it first
             b2 = sharer.share("rig-b", "200000000002")
             a3 = sharer.share("rig-a", "100000000003")
