@@ -62,7 +62,7 @@ void ShareBook::sample(Instance instance, const std::string& participant_guid,
   }
   if (it->second.doc != cam.device) {
     it->second.doc = cam.device;
-    table_.upsert(cam.id, std::move(cam.device));
+    table_.hold(options_.domain, cam.id, std::move(cam.device));
   }
 }
 
@@ -87,7 +87,7 @@ void ShareBook::release(std::map<std::string, std::size_t>::iterator p) {
 void ShareBook::drop(std::map<Instance, Entry>::iterator it, const char* why) {
   if (it == instances_.end()) return;
   log::info(log::domain_prefix(options_.domain) + "shared camera " + it->second.id + " " + why);
-  table_.remove(it->second.id);
+  table_.release(options_.domain, it->second.id);
   by_id_.erase(it->second.id);
   release(per_participant_.find(it->second.participant));
   instances_.erase(it);
@@ -111,7 +111,7 @@ ShareBook::Clock::duration ShareBook::tick(Clock::time_point now) {
       continue;
     }
     log::info(log::domain_prefix(options_.domain) + "shared camera " + it->first + " not heard again");
-    table_.remove(it->first);
+    table_.release(options_.domain, it->first);
     release(per_participant_.find(it->second.entry.participant));
     it = stale_.erase(it);
   }
@@ -119,8 +119,8 @@ ShareBook::Clock::duration ShareBook::tick(Clock::time_point now) {
 }
 
 void ShareBook::forget_devices() {
-  for (const auto& [instance, e] : instances_) table_.remove(e.id);
-  for (const auto& [id, e] : stale_) table_.remove(id);
+  for (const auto& [instance, e] : instances_) table_.release(options_.domain, e.id);
+  for (const auto& [id, e] : stale_) table_.release(options_.domain, id);
   instances_.clear();
   by_id_.clear();
   stale_.clear();

@@ -37,6 +37,40 @@ std::optional<DeviceEvent> SharedTable::remove(const std::string& id) {
   return event;
 }
 
+std::optional<DeviceEvent> SharedTable::hold(int owner, const std::string& id, nlohmann::json doc) {
+  std::optional<DeviceEvent> event;
+  {
+    std::lock_guard lock(mutex_);
+    auto& owners = held_[id];
+    owners[owner] = doc;
+    if (owners.begin()->first != owner) return std::nullopt;  // a lower owner's document shows
+    event = table_.upsert(id, std::move(doc), now_iso8601());
+    generation_ = table_.generation();
+  }
+  if (event) announce();
+  return event;
+}
+
+std::optional<DeviceEvent> SharedTable::release(int owner, const std::string& id) {
+  std::optional<DeviceEvent> event;
+  {
+    std::lock_guard lock(mutex_);
+    const auto it = held_.find(id);
+    if (it == held_.end() || !it->second.contains(owner)) return std::nullopt;
+    const bool showing = it->second.begin()->first == owner;
+    it->second.erase(owner);
+    if (it->second.empty()) {
+      held_.erase(it);
+      event = table_.remove(id);
+    } else if (showing) {
+      event = table_.upsert(id, it->second.begin()->second, now_iso8601());
+    }
+    generation_ = table_.generation();
+  }
+  if (event) announce();
+  return event;
+}
+
 std::optional<DeviceEvent> SharedTable::note_described(const std::string& id) {
   std::optional<DeviceEvent> event;
   {

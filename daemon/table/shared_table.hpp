@@ -9,6 +9,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <functional>
+#include <map>
 #include <mutex>
 
 namespace rsd {
@@ -26,6 +27,13 @@ class SharedTable {
   std::optional<DeviceEvent> upsert(const std::string& id, nlohmann::json doc);
   std::optional<DeviceEvent> remove(const std::string& id);
   std::optional<DeviceEvent> note_described(const std::string& id);
+  // A sighting that several owners report at once: another host's USB camera, shared
+  // on each DDS domain that host and this daemon are both on (the owners are the
+  // domains). It stays while any owner holds it and shows the document of the lowest
+  // owner holding it, so one domain letting go (its sharer's lease there ran out)
+  // does not remove a camera another domain still shows.
+  std::optional<DeviceEvent> hold(int owner, const std::string& id, nlohmann::json doc);
+  std::optional<DeviceEvent> release(int owner, const std::string& id);
   std::vector<DeviceEvent> remove_if(const std::function<bool(const model::Device&)>& pred);
 
   TableSnapshot snapshot() const;
@@ -57,6 +65,7 @@ class SharedTable {
   std::function<void()> hook_;
   void announce();  // wakes waiters and runs the hook
   DeviceTable table_;
+  std::map<std::string, std::map<int, nlohmann::json>> held_;  // hold(): id -> owner -> its document
   // table_.generation(), readable without the lock: the API asks it for every request.
   std::atomic<std::uint64_t> generation_;
   bool closed_ = false;

@@ -117,6 +117,30 @@ TEST_F(Share, DisposedOrWriterlessInstanceLeavesTheTable) {
   EXPECT_TRUE(ids().empty());
 }
 
+// A sharer on two domains this daemon is on too: one camera, one entry, which stays
+// while either domain still has it (the sharer's lease on one ran out) and shows the
+// lower domain's document.
+TEST_F(Share, ACameraSharedOnTwoDomainsStaysWhileEitherHasIt) {
+  ShareBookOptions other = options;
+  other.domain = 8;
+  ShareBook book8{table, other};
+  const std::string payload = rsd::dds::shared_usb_payload("rig-a", {"10.0.0.1"}, local_camera("1"));
+  book.sample(1, "p-a", shared("rig-a", "1"));
+  book8.sample(1, "p-a8", rsd::dds::parse_shared_usb(8, "rig-a", "usb-1", 1, bytes(payload), "p-a8"));
+  EXPECT_EQ(ids(), (std::vector<std::string>{"usb-1.rig-a"}));
+  EXPECT_EQ(table.find_entry("usb-1.rig-a")->device.domain, 7);
+  const auto generation = table.generation();
+  book.instance_gone(1, true, t0);  // unshared on 7 (or its lease there ran out)
+  ASSERT_EQ(ids(), (std::vector<std::string>{"usb-1.rig-a"}));
+  EXPECT_EQ(table.find_entry("usb-1.rig-a")->device.domain, 8);
+  EXPECT_EQ(table.generation(), generation + 1);  // one `changed`, no removal
+  book.sample(2, "p-a", shared("rig-a", "1"));  // back on 7
+  EXPECT_EQ(table.find_entry("usb-1.rig-a")->device.domain, 7);
+  book8.forget_devices();
+  book.forget_devices();
+  EXPECT_TRUE(ids().empty());
+}
+
 TEST_F(Share, OwnParticipantsSamplesNeverBecomeEntries) {
   book.set_own_participant("me");
   book.sample(1, "me", shared("this-host", "1", "me"));
