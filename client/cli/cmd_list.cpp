@@ -71,7 +71,18 @@ int run(const ParsedArgs& args) {
       generation = list.generation;
     }
   } else {
-    auto list = client.list(filter);  // waits for the complete table, unless told not to
+    // The table (or -q) reads a few keys of each camera: asked for those alone, the
+    // daemon sends and this parses about half of each document
+    // (bench/results/profile-cli-list.txt). --json and --format get whole ones.
+    std::vector<std::string> fields;
+    if (args.has("quiet") && !args.has("json")) {
+      fields = {"id"};
+    } else if (!args.has("json") && !format) {
+      fields = {"name", "serial", "source", "sources", "domain", "usb", "host", "server.addresses", "first-seen",
+                "recovery", "warnings"};
+      if (args.has("wide")) fields.insert(fields.end(), {"product-id", "fw-version"});
+    }
+    auto list = client.list(filter, fields);  // waits for the complete table, unless told not to
     devices = std::move(list.devices);
     complete = list.complete;
     generation = list.generation;

@@ -61,8 +61,8 @@ class Handlers {
 
  private:
   std::vector<DomainStatus> domains() const;
-  std::shared_ptr<const SharedBody> device_list(const DeviceFilter& filter, const std::string& query, bool done,
-                                                std::uint64_t& generation);
+  std::shared_ptr<const SharedBody> device_list(const DeviceFilter& filter, const DeviceFields& fields,
+                                                const std::string& query, bool done, std::uint64_t& generation);
   // The devices `name` names: the one with that id, else those with that serial
   // or topic-root.
   std::vector<EntryPtr> lookup(const std::string& name) const;
