@@ -104,7 +104,7 @@ int run(const ParsedArgs& args) {
   }
   if (args.has("quiet")) {
     for (const auto& d : devices) std::printf("%s\n", d.id.c_str());
-    return kOk;
+    exit_now(kOk);
   }
   if (format) {
     print_formatted(*format, devices);
@@ -127,7 +127,7 @@ int run(const ParsedArgs& args) {
     table.add(std::move(cells), std::move(colors));
   }
   table.print(stdout);
-  return kOk;
+  exit_now(kOk);
 }
 
 }  // namespace
