@@ -77,6 +77,7 @@ int run(const ParsedArgs& args) {
     std::vector<std::string> fields;
     if (args.has("quiet") && !args.has("json")) {
       fields = {"id"};
+      if (!host.empty()) fields.insert(fields.end(), {"source", "host"});  // what --host matches
     } else if (!args.has("json") && !format) {
       fields = {"name", "serial", "source", "sources", "domain", "usb", "host", "server.addresses", "first-seen",
                 "recovery", "warnings"};
