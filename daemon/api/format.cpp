@@ -112,62 +112,6 @@ std::optional<std::string> parse_device_filter(const QueryParams& params, Device
   return std::nullopt;
 }
 
-std::optional<std::string> parse_device_fields(const QueryParams& params, DeviceFields& out) {
-  constexpr std::size_t kMaxFields = 32, kMaxPart = 64;
-  const auto [begin, end] = params.equal_range("fields");
-  for (auto it = begin; it != end; ++it) {
-    const std::string& value = it->second;
-    if (value.empty()) return std::string("empty fields: name the device keys, separated by commas");
-    std::size_t start = 0;
-    for (;;) {
-      const std::size_t comma = std::min(value.find(',', start), value.size());
-      const std::string_view name(value.data() + start, comma - start);
-      std::vector<std::string> path;
-      std::size_t part_start = 0;
-      for (;;) {
-        const std::size_t dot = std::min(name.find('.', part_start), name.size());
-        const std::string_view part = name.substr(part_start, dot - part_start);
-        const bool ok = !part.empty() && part.size() <= kMaxPart && std::all_of(part.begin(), part.end(), [](char c) {
-          return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' || c == '_';
-        });
-        if (!ok) return "bad fields '" + value + "': expected names such as name,serial,server.addresses";
-        path.emplace_back(part);
-        if (dot == name.size()) break;
-        part_start = dot + 1;
-      }
-      if (std::find(out.paths.begin(), out.paths.end(), path) == out.paths.end()) out.paths.push_back(std::move(path));
-      if (out.paths.size() > kMaxFields) return "too many fields (at most " + std::to_string(kMaxFields) + ")";
-      if (comma == value.size()) break;
-      start = comma + 1;
-    }
-  }
-  return std::nullopt;
-}
-
-std::string project_device(const nlohmann::json& doc, const DeviceFields& fields) {
-  nlohmann::json out = nlohmann::json::object();
-  if (const auto id = doc.find("id"); id != doc.end()) out["id"] = *id;
-  for (const auto& path : fields.paths) {
-    const nlohmann::json* from = &doc;
-    for (const auto& key : path) {
-      const auto it = from->is_object() ? from->find(key) : from->end();
-      from = it == from->end() ? nullptr : &*it;
-      if (!from) break;
-    }
-    if (!from) continue;  // absent from this device
-    // The objects on the way, as in the document (or taken whole by a shorter name
-    // already: both are objects, since the lookup went through them).
-    nlohmann::json* to = &out;
-    for (std::size_t i = 0; i + 1 < path.size(); ++i) {
-      auto& member = (*to)[path[i]];
-      if (member.is_null()) member = nlohmann::json::object();
-      to = &member;
-    }
-    (*to)[path.back()] = *from;
-  }
-  return dump(out);
-}
-
 std::optional<std::string> parse_participant_filter(const QueryParams& params, ParticipantFilter& out) {
   if (auto err = check_params("/v1/participants", params, {"domain", "state"})) return err;
   for (const auto& [key, value] : params) {

@@ -77,8 +77,9 @@ struct DeviceFields {
   bool whole() const { return paths.empty(); }
 };
 std::optional<std::string> parse_device_fields(const QueryParams& params, DeviceFields& out);
-// The document with only `fields` (and "id"), spelled as dump() spells the whole one.
-std::string project_device(const nlohmann::json& doc, const DeviceFields& fields);
+// A device document as dump() writes it (the table's text) cut to `fields` and "id",
+// as dump() would write that cut.
+std::string project_device(std::string_view text, const DeviceFields& fields);
 
 // /v1/participants' filter, by the same rule: ?domain= and ?state= (alive, gone),
 // each repeatable.

@@ -91,7 +91,7 @@ std::shared_ptr<const SharedBody> Handlers::device_list(const DeviceFilter& filt
     if (filter.matches(e->device)) {
       if (!first) text += ',';
       // ?fields=: made here once per generation and query, as the whole list is.
-      text += fields.whole() ? e->text : project_device(model::to_json(e->device), fields);
+      text += fields.whole() ? e->text : project_device(e->text, fields);
       first = false;
     }
   text += R"(],"generation":)" + std::to_string(snap.generation) + "}\n";
