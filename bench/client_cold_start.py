@@ -4,13 +4,20 @@
 Starts rs-discoveryd on its own domain, socket and port, and realdds servers
 (tests/tools/realdds_server.py, 4 participants x 25 devices), waits until the daemon
 lists all 100, then times whole `rs-discover` processes (fork, exec, dynamic loading,
-one request, table output) and reports min / median / p90 in milliseconds.
+one request, table output) and reports min / median / p90 in milliseconds, and each
+command's time over /bin/true's, paired: the commands run in turn, in a random order
+each turn, so load from elsewhere on the (shared) machine hits all of them alike; the
+ratio is the median over blocks of 20 turns of the block's medians.
 
-    bench/client_cold_start.py --build build [--runs 200] [--domain 198]
+    bench/client_cold_start.py --build build [--runs 200] [--domain 198] [--compare OTHER_RS_DISCOVER]
+
+--compare adds `list (table)` of another rs-discover binary (a build of main, say) to
+the same turns: a before/after measured side by side.
 """
 import argparse
 import json
 import os
+import random
 import shutil
 import socket
 import statistics
@@ -29,16 +36,27 @@ def free_port():
         return s.getsockname()[1]
 
 
-def timed(cmd, runs):
-    samples = []
+def paired(cmds, runs, block=20):
+    """{label: (samples in ms, [median ratio to /bin/true per block])}, every command
+    once per turn in a random order."""
+    samples = {label: [] for label in cmds}
     for _ in range(runs):
-        t0 = time.perf_counter()
-        r = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        samples.append((time.perf_counter() - t0) * 1000)
-        if r.returncode != 0:
-            sys.exit(f"{cmd} failed: {r.stderr.decode()}")
-    samples.sort()
-    return samples[0], statistics.median(samples), samples[int(len(samples) * 0.9)]
+        order = list(cmds.items())
+        random.shuffle(order)
+        for label, cmd in order:
+            t0 = time.perf_counter()
+            r = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+            samples[label].append((time.perf_counter() - t0) * 1000)
+            if r.returncode != 0:
+                sys.exit(f"{cmd} failed: {r.stderr.decode()}")
+    floor = samples[FLOOR]
+    ratios = {label: [statistics.median(v[i:i + block]) / statistics.median(floor[i:i + block])
+                      for i in range(0, runs - block + 1, block)] or [statistics.median(v) / statistics.median(floor)]
+              for label, v in samples.items()}
+    return {label: (samples[label], ratios[label]) for label in cmds}
+
+
+FLOOR = "/bin/true (process floor)"
 
 
 def main():
@@ -47,6 +65,7 @@ def main():
     ap.add_argument("--runs", type=int, default=200)
     ap.add_argument("--domain", type=int, default=198)
     ap.add_argument("--devices", type=int, default=100)
+    ap.add_argument("--compare", help="another rs-discover binary whose `list` runs in the same turns")
     args = ap.parse_args()
     cli = os.path.join(args.build, "client", "rs-discover")
     daemon_bin = os.path.join(args.build, "daemon", "rs-discoveryd")
@@ -85,17 +104,21 @@ def main():
         if count < args.devices:
             sys.exit(f"only {count} of {args.devices} devices appeared")
         ep = "unix:" + sock
-        print(f"rs-discover cold start, {args.devices} devices, {args.runs} runs each (ms: min / median / p90)")
-        for label, cmd in [
+        print(f"rs-discover cold start, {args.devices} devices, {args.runs} runs each, paired "
+              "(ms: min / median / p90; x /bin/true: median [min-max] over blocks)")
+        cmds = dict([
             ("list (table)", [cli, "--endpoint", ep, "list"]),
             ("list --json", [cli, "--endpoint", ep, "list", "--json"]),
             ("list over HTTP", [cli, "--endpoint", f"http://127.0.0.1:{port}", "list"]),
             ("health", [cli, "--endpoint", ep, "health"]),
-            ("/bin/true (process floor)", ["/bin/true"]),
-        ] + ([("curl --unix-socket /v1/devices", ["curl", "-sf", "--unix-socket", sock,
-                                                  "http://localhost/v1/devices"])] if shutil.which("curl") else []):
-            lo, med, p90 = timed(cmd, args.runs)
-            print(f"  {label:34s} {lo:6.2f} / {med:6.2f} / {p90:6.2f}")
+            ("--version (no request)", [cli, "--version"]),
+            (FLOOR, ["/bin/true"]),
+        ] + ([("list (table), --compare", [args.compare, "--endpoint", ep, "list"])] if args.compare else []) + ([("curl --unix-socket /v1/devices", ["curl", "-sf", "--unix-socket", sock,
+                                                  "http://localhost/v1/devices"])] if shutil.which("curl") else []))
+        for label, (v, ratios) in paired(cmds, args.runs).items():
+            v = sorted(v)
+            print(f"  {label:34s} {v[0]:6.2f} / {statistics.median(v):6.2f} / {v[int(len(v) * 0.9)]:6.2f}"
+                  f"   {statistics.median(ratios):4.2f}x [{min(ratios):.2f}-{max(ratios):.2f}]")
     finally:
         for p in reversed(procs):
             p.kill()

@@ -108,6 +108,12 @@ void warn_incomplete();
 // Prints "rs-discover: message" for an error and returns the exit code it maps to.
 int report(const rsdiscovery::Error& error);
 
+// Ends the process now with `status`, stdio flushed, and no destructor run: what a
+// command built for its output (the devices, a table) is left to the exit, not freed
+// one string at a time (a tenth of a cold `rs-discover list` of 100 cameras,
+// bench/results/profile-cli-list.txt).
+[[noreturn]] void exit_now(int status);
+
 // ---- presentation ----------------------------------------------------------------------
 namespace color {
 extern const char* const bold;

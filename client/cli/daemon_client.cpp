@@ -98,6 +98,11 @@ rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args) {
   return f;
 }
 
+void exit_now(int status) {
+  std::fflush(nullptr);
+  std::_Exit(status);
+}
+
 void warn_incomplete() {
   // stderr, and still exit 0: the answer is right about every camera it lists, and
   // scripts reading stdout keep working; a human learns why one may be missing.

@@ -49,7 +49,9 @@ struct Client::Impl {
     }
   }
 
-  DeviceList list(const DeviceFilter& filter, Clock::time_point deadline);
+  DeviceList list(const DeviceFilter& filter, Clock::time_point deadline, const std::vector<std::string>& fields = {});
+  // The daemon answered 400 to ?fields= (older than it): whole documents from then on.
+  bool fields_refused = false;  // under `mutex`
 
   // The last list of each path and its ETag: asked again with If-None-Match, an
   // unchanged table is a 304 and this copy, not a parse of every document again
@@ -80,15 +82,23 @@ namespace {
 }
 }  // namespace
 
-DeviceList Client::Impl::list(const DeviceFilter& filter, Clock::time_point deadline) {
-  const std::string path = detail::devices_path(filter);
+DeviceList Client::Impl::list(const DeviceFilter& filter, Clock::time_point deadline,
+                              const std::vector<std::string>& fields) {
+  const std::string whole = detail::devices_path(filter);
+  std::string projected;
+  if (!fields.empty()) projected = detail::with_fields(whole, fields);
   for (;;) {
     std::unique_lock lock(mutex);
+    const std::string& path = projected.empty() || fields_refused ? whole : projected;
     auto& cached = lists[path];
     detail::Reply reply = transport.get(path, std::nullopt, cached.etag);
     if (reply.status == 304 && !cached.etag.empty()) {
       if (cached.list.complete || Clock::now() >= deadline) return cached.list;
     } else {
+      if (reply.status == 400 && &path == &projected) {  // a daemon without ?fields=
+        fields_refused = true;
+        continue;
+      }
       if (reply.status != 200) throw transport.status_error(path, reply);
       DeviceList out;
       if (auto problem = detail::read_device_list(reply.body, path, out)) malformed(endpoint, *problem);
@@ -104,6 +114,10 @@ DeviceList Client::Impl::list(const DeviceFilter& filter, Clock::time_point dead
 }
 
 DeviceList Client::list(const DeviceFilter& filter) { return impl_->list(filter, impl_->complete_deadline()); }
+
+DeviceList Client::list(const DeviceFilter& filter, const std::vector<std::string>& fields) {
+  return impl_->list(filter, impl_->complete_deadline(), fields);
+}
 
 std::vector<Device> Client::list_devices(const DeviceFilter& filter) { return list(filter).devices; }
 

@@ -109,12 +109,18 @@ std::optional<std::string> read_list(const V& doc, std::vector<std::string>& tex
 // RapidJSON's tree builder (the document's own handler) with a bound on nesting: the
 // tree is read recursively afterwards (a key the model does not know is written out
 // again), and no list of the daemon's comes near it (a device-info is cut at 16
-// levels: daemon/dds/device_info.hpp).
+// levels: daemon/dds/device_info.hpp). On the way it notes where each object of the
+// top-level "devices" array starts and ends, for Device::json: a scan of the body
+// for them before the parse (array_member_elements) was a twentieth of a cold
+// `rs-discover list` (bench/results/profile-cli-list.txt).
 class DepthLimited {
  public:
   static constexpr int kMaxDepth = 64;
-  explicit DepthLimited(rapidjson::Document& doc) : doc_(doc) {}
+  DepthLimited(rapidjson::Document& doc, rapidjson::InsituStringStream& stream) : doc_(doc), stream_(stream) {}
   bool too_deep() const { return too_deep_; }
+  // [start, end) of each device object in the body, as the stream stood at its braces:
+  // at the brace or just past it (the reader calls before or after taking it).
+  const std::vector<std::pair<std::size_t, std::size_t>>& spans() const { return spans_; }
 
   bool Null() { return doc_.Null(); }
   bool Bool(bool b) { return doc_.Bool(b); }
@@ -125,9 +131,19 @@ class DepthLimited {
   bool Double(double d) { return doc_.Double(d); }
   bool RawNumber(const char* str, rapidjson::SizeType length, bool copy) { return doc_.RawNumber(str, length, copy); }
   bool String(const char* str, rapidjson::SizeType length, bool copy) { return doc_.String(str, length, copy); }
-  bool Key(const char* str, rapidjson::SizeType length, bool copy) { return doc_.Key(str, length, copy); }
-  bool StartObject() { return enter() && doc_.StartObject(); }
-  bool EndObject(rapidjson::SizeType members) { return leave() && doc_.EndObject(members); }
+  bool Key(const char* str, rapidjson::SizeType length, bool copy) {
+    if (depth_ == 1) in_devices_ = std::string_view(str, length) == "devices";
+    return doc_.Key(str, length, copy);
+  }
+  bool StartObject() {
+    if (!enter()) return false;
+    if (depth_ == 3 && in_devices_) spans_.emplace_back(stream_.Tell(), 0);
+    return doc_.StartObject();
+  }
+  bool EndObject(rapidjson::SizeType members) {
+    if (depth_ == 3 && in_devices_ && !spans_.empty()) spans_.back().second = stream_.Tell();
+    return leave() && doc_.EndObject(members);
+  }
   bool StartArray() { return enter() && doc_.StartArray(); }
   bool EndArray(rapidjson::SizeType elements) { return leave() && doc_.EndArray(elements); }
 
@@ -141,9 +157,31 @@ class DepthLimited {
     return true;
   }
   rapidjson::Document& doc_;
+  rapidjson::InsituStringStream& stream_;
   int depth_ = 0;
   bool too_deep_ = false;
+  bool in_devices_ = false;  // the last top-level key was "devices"
+  std::vector<std::pair<std::size_t, std::size_t>> spans_;
 };
+
+// Each device's text from the spans the parse noted in `original` (the body before
+// the parse rewrote it), each checked to be a whole {...}; else found by a scan.
+std::vector<std::string> device_texts(std::string_view original,
+                                      const std::vector<std::pair<std::size_t, std::size_t>>& spans) {
+  std::vector<std::string> texts;
+  texts.reserve(spans.size());
+  for (auto [start, end] : spans) {
+    if (start < original.size() && original[start] != '{' && start > 0 && original[start - 1] == '{') --start;
+    if (end < original.size() && original[end] == '}') ++end;
+    if (start >= end || end > original.size() || original[start] != '{' || original[end - 1] != '}') {
+      texts.clear();
+      for (auto text : array_member_elements(original, "devices")) texts.emplace_back(text);
+      return texts;
+    }
+    texts.emplace_back(original.substr(start, end - start));
+  }
+  return texts;
+}
 
 // RapidJSON 1.1.0 as bookworm ships it (1.1.0+dfsg2-7.1) adds a negative exponent of
 // nine digits to the count of a fraction's digits in an int, which a fraction of some
@@ -180,9 +218,6 @@ bool is_ascii(std::string_view text) {
 }  // namespace
 
 std::optional<std::string> read_device_list(std::string& body, const std::string& path, DeviceList& out) {
-  // Each device's text as the daemon sent it, taken before the parse rewrites the body.
-  std::vector<std::string> texts;
-  for (auto text : array_member_elements(body, "devices")) texts.emplace_back(text);
   // Strict as nlohmann is (the same documents refused: numbers beyond a double, lone
   // surrogates, control characters, trailing text; unit-tested): one value, and valid
   // UTF-8 only, which RapidJSON checks byte by byte (a quarter of a cold list's
@@ -195,13 +230,18 @@ std::optional<std::string> read_device_list(std::string& body, const std::string
   // nor raw inside them.
   if (body.find('\0') != std::string::npos) return "GET " + path + " did not return a JSON object";
   if (has_long_exponent(body)) {
+    std::vector<std::string> texts;  // each device's text as the daemon sent it
+    for (auto text : array_member_elements(body, "devices")) texts.emplace_back(text);
     const auto tree = json::parse(body, nullptr, false);
     if (tree.is_discarded()) return "GET " + path + " did not return a JSON object";
     return read_list(rsd::model::JsonView(tree), texts, path, out);
   }
+  // Each device's text as the daemon sent it is cut from this copy: the parse
+  // rewrites the body.
+  const std::string original = body;
   rapidjson::Document doc;
-  DepthLimited builder(doc);
   rapidjson::InsituStringStream stream(body.data());
+  DepthLimited builder(doc, stream);
   rapidjson::Reader reader;
   const bool ascii = is_ascii(body);
   auto parse = [&](rapidjson::Document&) {
@@ -214,6 +254,7 @@ std::optional<std::string> read_device_list(std::string& body, const std::string
     return "GET " + path + " returned a document nested deeper than " + std::to_string(DepthLimited::kMaxDepth) +
            " levels";
   if (reader.HasParseError()) return "GET " + path + " did not return a JSON object";
+  auto texts = device_texts(original, builder.spans());
   return read_list(RapidView(doc), texts, path, out);
 }
 

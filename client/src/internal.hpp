@@ -56,6 +56,8 @@ bool reports_complete(const nlohmann::json& doc);
 
 // "/v1/devices?domain=7&product-line=D400" (values percent-encoded).
 std::string devices_path(const DeviceFilter& filter);
+// `path` (devices_path's) asking for only these keys of each device (?fields=).
+std::string with_fields(std::string path, const std::vector<std::string>& fields);
 std::string percent_encode(std::string_view text);
 
 // What is read from the daemon at most, so that an endpoint that is not the daemon (or

@@ -312,6 +312,13 @@ std::string devices_path(const DeviceFilter& filter) {
   return path;
 }
 
+std::string with_fields(std::string path, const std::vector<std::string>& fields) {
+  std::string list;
+  for (const auto& f : fields) list += (list.empty() ? "" : ",") + f;
+  path += path.find('?') == std::string::npos ? "?fields=" : "&fields=";
+  return path + percent_encode(list);
+}
+
 }  // namespace detail
 
 std::string Device::field(const std::string& key) const {

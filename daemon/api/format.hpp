@@ -65,6 +65,22 @@ std::optional<std::string> check_params(std::string_view route, const QueryParam
 std::optional<std::string> parse_device_filter(const QueryParams& params, DeviceFilter& out,
                                                const std::set<std::string>& also_allowed = {});
 
+// ?fields=name,serial,server.addresses on GET /v1/devices: which keys of each device
+// document a list carries (a dotted name is a key inside an object member), so a
+// client that shows a few columns is sent and parses those, not every document whole
+// (a cold `rs-discover list` of 100 cameras: bench/results/profile-cli-list.txt). The
+// id always comes. Repeated, the lists join. Names: 1-64 characters of letters,
+// digits, '-' and '_' per dotted part, at most 32 names; a name no device has is
+// simply absent from the documents.
+struct DeviceFields {
+  std::vector<std::vector<std::string>> paths;  // each name split at its dots; empty: whole documents
+  bool whole() const { return paths.empty(); }
+};
+std::optional<std::string> parse_device_fields(const QueryParams& params, DeviceFields& out);
+// A device document as dump() writes it (the table's text) cut to `fields` and "id",
+// as dump() would write that cut.
+std::string project_device(std::string_view text, const DeviceFields& fields);
+
 // /v1/participants' filter, by the same rule: ?domain= and ?state= (alive, gone),
 // each repeatable.
 struct ParticipantFilter {

@@ -68,8 +68,9 @@ thread_local ListCache tls_list_cache;
 
 }  // namespace
 
-std::shared_ptr<const SharedBody> Handlers::device_list(const DeviceFilter& filter, const std::string& query,
-                                                        bool done, std::uint64_t& generation) {
+std::shared_ptr<const SharedBody> Handlers::device_list(const DeviceFilter& filter, const DeviceFields& fields,
+                                                        const std::string& query, bool done,
+                                                        std::uint64_t& generation) {
   auto& cache = tls_list_cache;
   if (cache.server == instance && cache.generation == table.generation())
     for (const auto& e : cache.entries)
@@ -89,7 +90,8 @@ std::shared_ptr<const SharedBody> Handlers::device_list(const DeviceFilter& filt
   for (const auto& e : snap.devices)
     if (filter.matches(e->device)) {
       if (!first) text += ',';
-      text += e->text;
+      // ?fields=: made here once per generation and query, as the whole list is.
+      text += fields.whole() ? e->text : project_device(e->text, fields);
       first = false;
     }
   text += R"(],"generation":)" + std::to_string(snap.generation) + "}\n";
@@ -102,14 +104,16 @@ std::shared_ptr<const SharedBody> Handlers::device_list(const DeviceFilter& filt
 
 void Handlers::handle_devices(const ApiRequest& req, ApiResponse& res) {
   DeviceFilter filter;
-  if (auto err = parse_device_filter(req.params, filter)) return send_error(res, 400, *err);
+  if (auto err = parse_device_filter(req.params, filter, {"fields"})) return send_error(res, 400, *err);
+  DeviceFields fields;
+  if (auto err = parse_device_fields(req.params, fields)) return send_error(res, 400, *err);
   std::string query;  // the parsed parameters in order: the cache's key
   for (const auto& [k, v] : req.params) query += k + "=" + v + "&";
   // Completeness first, then the snapshot: "complete": true then promises that the
   // list was taken after the first discovery ended, never just before.
   const bool done = status.discovery_complete();
   std::uint64_t generation = 0;
-  auto body = device_list(filter, query, done, generation);
+  auto body = device_list(filter, fields, query, done, generation);
   // The table's generation names the body: a client that has it already gets a
   // 304 and keeps what it parsed.
   const std::string etag = list_etag(generation, done);

@@ -60,11 +60,11 @@ class Handlers {
   // Answers by status (100-599), counted without a lock: every request touches it.
   std::array<std::atomic<std::uint64_t>, 600> requests_by_status{};
 
-  // The /v1/devices body of the table's current generation for `filter` (`query`:
-  // its parameters as the cache's key), made once per generation and thread.
-  // Also ListReplay's, which serves the plain list without httplib.
-  std::shared_ptr<const SharedBody> device_list(const DeviceFilter& filter, const std::string& query, bool done,
-                                                std::uint64_t& generation);
+  // The /v1/devices body of the table's current generation for `filter` and
+  // `fields` (`query`: the parameters as the cache's key), made once per generation
+  // and thread. Also ListReplay's, which serves the plain list without httplib.
+  std::shared_ptr<const SharedBody> device_list(const DeviceFilter& filter, const DeviceFields& fields,
+                                                const std::string& query, bool done, std::uint64_t& generation);
 
  private:
   std::vector<DomainStatus> domains() const;

@@ -144,7 +144,7 @@ bool ListReplay::answer(std::string_view request, bool stopping, QuickReply& rep
   // As handle_devices: completeness first, then the list.
   const bool done = handlers_.status.discovery_complete();
   std::uint64_t generation = 0;
-  auto body = handlers_.device_list(DeviceFilter{}, std::string(), done, generation);
+  auto body = handlers_.device_list(DeviceFilter{}, DeviceFields{}, std::string(), done, generation);
   Heads& h = tls_heads;
   if (h.owner != this || h.body != body || h.complete != done) {
     if (!learn(h, server_, http_, body, generation, done)) return false;

@@ -234,10 +234,17 @@ TEST(Device, ListSlicesAreEachDeviceExactlyAsSent) {
                                         json::object({{"id", "c"}, {"nested", {{"deep", json::array({1, "2", nullptr})}}}}),
                                         json::object({{"id", "\\\\"}, {"name", "caf\u00e9 \u2014 \\\""}})})},
                {"generation", 42}};
+  list["devices"].push_back({{"id", "d"}, {"devices", json::array({json::object({{"id", "inner"}})})}});
   for (const std::string& text : {list.dump(), list.dump(2)}) {  // compact, as the daemon writes, and spaced
     const auto slices = detail::array_member_elements(text, "devices");
-    ASSERT_EQ(slices.size(), 3u) << text;
+    ASSERT_EQ(slices.size(), 4u) << text;
     for (std::size_t i = 0; i < slices.size(); ++i) EXPECT_EQ(json::parse(slices[i]), list["devices"][i]);
+    // The list reader notes the same spans while it parses (the scan is its fallback).
+    std::string body = text;
+    DeviceList out;
+    ASSERT_EQ(detail::read_device_list(body, "/v1/devices", out), std::nullopt) << text;
+    ASSERT_EQ(out.devices.size(), 4u);
+    for (std::size_t i = 0; i < slices.size(); ++i) EXPECT_EQ(out.devices[i].json, slices[i]) << i;
   }
   EXPECT_EQ(detail::array_member_elements(json({{"devices", json::array()}}).dump(), "devices").size(), 0u);
   EXPECT_EQ(detail::array_member_elements(R"({"devices":[1, "two", true, null]})", "devices").size(), 4u);

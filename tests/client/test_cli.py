@@ -35,6 +35,36 @@ def table(stdout):
     return names, rows
 
 
+def test_list_table_shows_what_the_whole_documents_say(daemon, realdds_server, domain):
+    """The table asks the daemon for its columns' keys alone (?fields=); what it shows
+    is what the whole documents say, and --json and --format still get whole ones."""
+    d = daemon([domain])
+    ep = "unix:" + d.socket
+    realdds_server(domain, [device_info(1), device_info(2, **{"fw-version": "5.17.0.2"})], name="fields-cli")
+    wait_for(lambda: len(d.device_ids()) == 2, timeout=20, what="2 devices listed")
+    whole = {x["serial"]: x for x in d.devices()}
+    r = rs_discover("list", "-w", endpoint=ep)
+    assert r.returncode == 0, r.stderr
+    # Split at runs of spaces (table() would find "ID" inside "PRODUCT-ID").
+    lines = [re.split(r" {2,}", line.strip()) for line in r.stdout.splitlines()]
+    names, rows = lines[0], [dict(zip(lines[0], cells)) for cells in lines[1:]]
+    assert names == COLUMNS + ["PRODUCT-ID", "FW", "ID"]
+    assert {row["SERIAL"] for row in rows} == set(whole)
+    for row in rows:
+        doc = whole[row["SERIAL"]]
+        assert (row["NAME"], row["SOURCE"], row["DOMAIN/PORT"], row["STATE"]) == (doc["name"], "dds", str(domain), "ok")
+        assert row["ADDRESS"] == ",".join(doc["server"]["addresses"])
+        assert (row["PRODUCT-ID"], row["FW"], row["ID"]) == (doc["product-id"], doc["fw-version"], doc["id"])
+        assert re.fullmatch(r"\d+[smhd]", row["AGE"])
+    assert sorted(rs_discover("list", "-q", endpoint=ep).stdout.split()) == d.device_ids()
+    listed = json.loads(rs_discover("list", "--json", endpoint=ep).stdout)["devices"]
+    assert len(listed) == 2
+    for x in listed:  # whole, as the API lists them (last-seen may have moved on)
+        assert x == whole[x["serial"]] | {"last-seen": x["last-seen"]}
+    r = rs_discover("list", "--format", "{serial} {topic-root} {server.participant-name}", endpoint=ep)
+    assert sorted(r.stdout.splitlines()) == sorted(f"{k} {v['topic-root']} fields-cli" for k, v in whole.items())
+
+
 def test_list_get_json_and_filters(daemon, realdds_server, domain):
     d = daemon([domain])
     ep = "unix:" + d.socket

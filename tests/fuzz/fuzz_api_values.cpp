@@ -1,7 +1,7 @@
 // Fuzz target for the API's value parsers, straight (cheaper than through a request,
 // so more of them): a domain, a generation (since, Last-Event-ID), an If-None-Match
-// against an ETag, a Host header, and a query of filters. Lines of the input are the
-// values. Every parser answers, and what it accepts is in range.
+// against an ETag, a Host header, and a query of filters and fields. Lines of the
+// input are the values. Every parser answers, and what it accepts is in range.
 #include "api/format.hpp"
 #include "api/host_check.hpp"
 
@@ -41,6 +41,21 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (int d : filter.domains)
       if (d < 0 || d > 232) std::abort();
     (void)filter.matches(rsd::model::device_from_json(nlohmann::json::parse(v[4], nullptr, false)));
+  }
+  rsd::api::DeviceFields fields;  // ?fields=: a bounded list, and a projection is an object
+  if (!rsd::api::parse_device_fields(params, fields)) {
+    if (fields.paths.size() > 32) std::abort();
+    for (const auto& path : fields.paths)
+      for (const auto& part : path)
+        if (part.empty() || part.size() > 64) std::abort();
+    const auto doc = nlohmann::json::parse(v[4], nullptr, false);
+    // Cut from the text, it is what the document cut and written again would be.
+    if (doc.is_object()) {
+      const auto cut = nlohmann::json::parse(rsd::api::project_device(rsd::api::dump(doc), fields), nullptr, false);
+      if (!cut.is_object() || !cut.contains("id") != !doc.contains("id")) std::abort();
+      for (const auto& [key, value] : cut.items())
+        if (!doc.contains(key) || (value.is_object() ? !doc[key].is_object() : doc[key] != value)) std::abort();
+    }
   }
   (void)rsd::api::check_params("/v1/domains", params, {});
   (void)rsd::api::sse_message(v[0], rsd::api::parse_generation(v[1]), v[2]);

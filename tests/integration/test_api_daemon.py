@@ -163,6 +163,40 @@ def test_real_device_listed_validated_and_streamed(daemon, free_domain, realdds_
     resumed.close()
 
 
+def test_fields_sends_only_the_keys_asked_for(daemon, free_domain, realdds_server):
+    """?fields= (what `rs-discover list`'s table asks for): each device with those keys
+    and its id, the rest of the list as without it; a malformed list is a 400."""
+    d = daemon([free_domain])
+    realdds_server(free_domain, [device_info(1), device_info(2)], name="fields-server")
+    wait_for(lambda: (lambda x: len(x["devices"]) == 2 and x["complete"])(get_json(d.socket, "/v1/devices")),
+             timeout=15, what="2 devices listed, the table complete")
+    whole = get_json(d.socket, "/v1/devices")
+    by_id = {x["id"]: x for x in whole["devices"]}
+
+    some = get_json(d.socket, "/v1/devices?fields=serial,server.addresses")
+    assert some["generation"] == whole["generation"] and some["complete"] is True
+    assert [x["id"] for x in some["devices"]] == [x["id"] for x in whole["devices"]]
+    for x in some["devices"]:
+        full = by_id[x["id"]]
+        assert x == {"id": full["id"], "serial": full["serial"], "server": {"addresses": full["server"]["addresses"]}}
+    # Repeated, the lists join; a whole object and a key inside it: the whole object.
+    joined = get_json(d.socket, "/v1/devices?fields=name&fields=server,server.addresses")
+    assert [set(x) for x in joined["devices"]] == [{"id", "name", "server"}] * 2
+    assert [x["server"] for x in joined["devices"]] == [x["server"] for x in whole["devices"]]
+    # With a filter; a key no device has is absent, not an error.
+    one = get_json(d.socket, f"/v1/devices?serial={device_info(2)['serial']}&fields=no-such-key")
+    assert one["devices"] == [{"id": next(i for i, x in by_id.items() if x["serial"] == device_info(2)["serial"])}]
+    # The whole list is still whole after the projected ones (the daemon caches each).
+    assert get_json(d.socket, "/v1/devices") == whole
+
+    for bad in ["", "a,,b", ",name", "name,", "server..addresses", ".name", "na%20me", "n%C3%A4me",
+                ",".join(f"k{i}" for i in range(33))]:
+        status, _, body = request(d.socket, "/v1/devices?fields=" + bad)
+        assert status == 400, bad
+        validate_response("/v1/devices", 400, json.loads(body))
+        assert "fields" in json.loads(body)["error"], body
+
+
 def test_events_keepalive(daemon, free_domain):
     d = daemon([free_domain])
     stream = SSEStream(d.socket)

@@ -105,6 +105,57 @@ TEST(ApiFilter, UnknownKeyIsAnErrorUnlessAllowed) {
   EXPECT_FALSE(parse_device_filter({{"since", "5"}}, g, {"since"}));
 }
 
+TEST(ApiFields, NamesAreListedDottedAndJoined) {
+  DeviceFields f;
+  ASSERT_FALSE(parse_device_fields({}, f));
+  EXPECT_TRUE(f.whole());
+  ASSERT_FALSE(parse_device_fields({{"fields", "name,server.addresses"}, {"fields", "fw-version,name,usb_x"}}, f));
+  using Path = std::vector<std::string>;
+  EXPECT_EQ(f.paths, (std::vector<Path>{{"name"}, {"server", "addresses"}, {"fw-version"}, {"usb_x"}}));
+  DeviceFields many;
+  std::string names;
+  for (int i = 0; i < 32; ++i) names += (i ? ",k" : "k") + std::to_string(i);
+  EXPECT_FALSE(parse_device_fields({{"fields", names}}, many));
+  EXPECT_TRUE(parse_device_fields({{"fields", names + ",k32"}}, many));
+}
+
+TEST(ApiFields, MalformedIsAnError) {
+  for (const char* bad : {"", ",", "a,,b", ",a", "a,", "a..b", ".a", "a.", "a b", "a/b", "\xc3\xa4"}) {
+    DeviceFields f;
+    const auto err = parse_device_fields({{"fields", bad}}, f);
+    ASSERT_TRUE(err) << bad;
+    EXPECT_NE(err->find("fields"), std::string::npos) << *err;
+  }
+  DeviceFields f;
+  EXPECT_TRUE(parse_device_fields({{"fields", std::string(65, 'a')}}, f));
+  DeviceFilter filter;  // the filter's own check lets it through only when told to
+  EXPECT_TRUE(parse_device_filter({{"fields", "name"}}, filter));
+  EXPECT_FALSE(parse_device_filter({{"fields", "name"}}, filter, {"fields"}));
+}
+
+TEST(ApiFields, ProjectionKeepsTheIdAndTheNamedKeys) {
+  const json doc = {{"id", "dds-1-x"},
+                    {"name", "Intel RealSense D455"},
+                    {"serial", "1"},
+                    {"server", {{"addresses", {"192.0.2.2"}}, {"participant-guid", "g"}}},
+                    {"usb", nullptr}};
+  const auto project = [&](const std::string& names) {
+    DeviceFields f;
+    EXPECT_FALSE(parse_device_fields({{"fields", names}}, f));
+    return json::parse(project_device(dump(doc), f));
+  };
+  EXPECT_EQ(project("serial,server.addresses"),
+            (json{{"id", "dds-1-x"}, {"serial", "1"}, {"server", {{"addresses", {"192.0.2.2"}}}}}));
+  EXPECT_EQ(project("server.addresses,server"), (json{{"id", "dds-1-x"}, {"server", doc["server"]}}));
+  EXPECT_EQ(project("server,server.addresses"), (json{{"id", "dds-1-x"}, {"server", doc["server"]}}));
+  // Absent, or not an object on the way: left out. A null is a value like any.
+  EXPECT_EQ(project("host,name.first,server.nothing,usb"), (json{{"id", "dds-1-x"}, {"usb", nullptr}}));
+  // Spelled as the whole document is (dump: one line, keys sorted).
+  DeviceFields all;
+  ASSERT_FALSE(parse_device_fields({{"fields", "name,serial,server,usb"}}, all));
+  EXPECT_EQ(project_device(dump(doc), all), dump(doc));
+}
+
 TEST(ApiParse, Generation) {
   EXPECT_EQ(parse_generation("0"), 0u);
   EXPECT_EQ(parse_generation("18446744073709551615"), UINT64_MAX);

@@ -460,6 +460,12 @@ class RSDISCOVERY_API Client {
   // daemon each call; to list often, keep a view() instead.
   DeviceList list(const DeviceFilter& filter = {});
   std::vector<Device> list_devices(const DeviceFilter& filter = {});  // list(filter).devices
+  // list(filter) asking only for these keys of each device document ("id" always
+  // comes; a dotted name is a key inside an object, "server.addresses"): less to send
+  // and to parse when a few are shown. Members of other keys stay empty and
+  // Device::json holds only these. A daemon older than the daemon's ?fields= (a 400)
+  // is asked again for whole documents. An empty `fields` is list(filter).
+  DeviceList list(const DeviceFilter& filter, const std::vector<std::string>& fields);
   // One device by its id, serial or topic-root (the daemon's lookup). get_device throws
   // Error(not_found) when absent; both throw Error(not_found) with http_status() 409
   // when a serial or topic-root names several devices.
