@@ -55,8 +55,7 @@ int run(const ParsedArgs& args) {
     // (bench/results/profile-cli-list.txt). --json and --format get whole ones.
     std::vector<std::string> fields;
     if (args.has("quiet") && !args.has("json")) {
-      fields = {"id"};
-      if (!host.empty()) fields.insert(fields.end(), {"source", "host"});  // what --host matches
+      fields = {"id"};  // --host is the daemon's filter too (DeviceFilter::host)
     } else if (!args.has("json") && !format) {
       fields = {"name", "serial", "source", "sources", "domain", "usb", "host", "server.addresses", "first-seen",
                 "recovery", "warnings"};
