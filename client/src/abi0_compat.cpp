@@ -15,6 +15,10 @@
 
 namespace rsdiscovery::abi0 {
 
+// Copies of the earlier declarations on purpose, not shared with the header (by a
+// template or a macro): a definition both used would follow the next change to the
+// header, and the programs built against this layout would break without a sign.
+
 struct DeviceFilter {  // rsdiscovery::DeviceFilter before `host`
   std::optional<int> domain;
   std::vector<int> domains;
