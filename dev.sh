@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # rs-discoveryd developer entry point: the two commands the README gives.
 #
-#   ./dev.sh run    install what building and running need, build the daemon and
-#                   rs-discover, run the daemon in the foreground on its embedded
-#                   defaults (domain 0, HTTP on 127.0.0.1:8035, Unix socket under the
-#                   runtime directory); extra arguments go to the daemon, e.g.
-#                   ./dev.sh run --domain 5
+#   ./dev.sh run    install what building and running need, build the daemon,
+#                   rs-discover and the client library, run the daemon in the foreground
+#                   on its embedded defaults (domain 0, HTTP on 127.0.0.1:8035, Unix
+#                   socket under the runtime directory); extra arguments go to the
+#                   daemon, e.g. ./dev.sh run --domain 5
+#   ./dev.sh build [DIR]   the same build, in DIR (default build), without running:
+#                   then `cmake --install DIR --prefix P` installs everything
 #   ./dev.sh test   install everything the tests need too, build (plain, and with
 #                   AddressSanitizer and UBSan), and run the whole test suite with
 #                   ctest on both; also the fuzz targets under libFuzzer (clang) and
@@ -49,8 +51,14 @@ TEST_PACKAGES=(
   bash-completion zsh
   # the man pages, linted (groff-base above renders them)
   mandoc
+  # reading the man pages from the tree, as the README says (man -l)
+  man-db
 )
 DEB_PACKAGES=("${RUN_PACKAGES[@]}" "${TEST_PACKAGES[@]}")
+
+# What `run` builds: what runs, and what `cmake --install` installs besides (the C++
+# library; its objects are rs-discover's too, so it costs a link), not the tests.
+RUN_TARGETS=(rs-discoveryd rs-discover rsdiscovery rsdiscovery_static)
 
 say() { printf '\n==> %s\n' "$*"; }
 
@@ -112,17 +120,21 @@ case "${1:-}" in
       *) echo "usage: ./dev.sh packages run|test" >&2; exit 2 ;;
     esac
     ;;
-  run)
+  run | build)
+    command=$1
     shift
+    dir=build
+    if [ "$command" = build ] && [ $# -gt 0 ]; then dir=$1; fi
     install_packages "${RUN_PACKAGES[@]}"
-    say "building rs-discoveryd and rs-discover in build"
+    say "building ${RUN_TARGETS[*]} in $dir"
     # The test suite needs GoogleTest, which only `./dev.sh test` installs: a tree
     # that has it keeps its tests configured, a first run builds without them.
     tests=OFF
     if dpkg-query -W -f='${Status}' libgtest-dev 2>/dev/null | grep -q "install ok installed"; then tests=ON; fi
-    configure build -DRSD_BUILD_TESTS=$tests
-    cmake --build build -j"$(nproc)" --target rs-discoveryd rs-discover  # what runs, not the tests
-    say "starting rs-discoveryd (Ctrl-C stops it)"
+    configure "$dir" -DRSD_BUILD_TESTS=$tests
+    cmake --build "$dir" -j"$(nproc)" --target "${RUN_TARGETS[@]}"
+    if [ "$command" = build ]; then exit 0; fi
+    say "starting rs-discoveryd (Ctrl-C stops it); rs-discover is build/client/rs-discover"
     exec build/daemon/rs-discoveryd "$@"
     ;;
   test)
@@ -161,7 +173,7 @@ case "${1:-}" in
     exit $status
     ;;
   *)
-    sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'
     exit 2
     ;;
 esac

@@ -1,8 +1,9 @@
 """`./dev.sh run`, a new user's first command, installs only what building and running
 need (not the test toolchain: Chromium, clang, nginx, mmdebstrap ...), and builds
-rs-discover beside the daemon so the README's next line works; `./dev.sh test` still
-installs everything. The files CMake finds for a tree without tests come from the run
-list's packages (or what they depend on)."""
+rs-discover beside the daemon so the README's next line works, and the client library so
+that `cmake --install` works after it; `./dev.sh test` still installs everything. The
+files CMake finds for a tree without tests come from the run list's packages (or what
+they depend on)."""
 import os
 import re
 import shutil
@@ -33,10 +34,31 @@ def test_run_installs_a_part_of_what_test_installs():
 
 def test_run_builds_the_daemon_and_rs_discover():
     text = open(DEV).read()
-    run = text[text.index("\n  run)"):text.index("\n    ;;", text.index("\n  run)"))]
+    run = text[text.index("\n  run | build)"):text.index("\n    ;;", text.index("\n  run | build)"))]
     assert 'install_packages "${RUN_PACKAGES[@]}"' in run
-    built = re.search(r"cmake --build build .*--target ([^#\n]+)", run)
-    assert built and set(built.group(1).split()) == {"rs-discoveryd", "rs-discover"}, run
+    assert re.search(r'cmake --build "\$dir" .*--target "\$\{RUN_TARGETS\[@\]\}"', run), run
+    targets = re.search(r"^RUN_TARGETS=\(([^)]*)\)", text, re.M)
+    assert targets and {"rs-discoveryd", "rs-discover"} <= set(targets.group(1).split()), text
+
+
+def test_install_works_after_the_run_build(tmp_path):
+    # The build step of `./dev.sh run`, alone, in a fresh tree; then what the README's
+    # install line does. ccache, when there, makes the rebuild cheap.
+    env = dict(os.environ)
+    if shutil.which("ccache"):
+        env.update(CMAKE_C_COMPILER_LAUNCHER="ccache", CMAKE_CXX_COMPILER_LAUNCHER="ccache")
+    tree, prefix = tmp_path / "build", tmp_path / "prefix"
+    r = subprocess.run([DEV, "build", str(tree)], capture_output=True, text=True, env=env, timeout=1500)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    assert os.access(tree / "daemon" / "rs-discoveryd", os.X_OK) and os.access(tree / "client" / "rs-discover", os.X_OK)
+    r = subprocess.run(["cmake", "--install", str(tree), "--prefix", str(prefix)], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    for path in ("bin/rs-discover", "sbin/rs-discoveryd"):
+        r = subprocess.run([str(prefix / path), "--version"], capture_output=True, text=True, timeout=30)
+        assert r.returncode == 0 and "0.1.0" in r.stdout + r.stderr, (path, r.stdout, r.stderr)
+    assert (prefix / "share" / "man" / "man1" / "rs-discover.1").is_file()
+    assert list(prefix.glob("lib*/**/librsdiscovery.so.0*")) and list(prefix.glob("lib*/**/librsdiscovery.a"))
 
 
 @pytest.mark.skipif(not shutil.which("dpkg-query"), reason="Debian only")

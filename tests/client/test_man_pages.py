@@ -39,3 +39,16 @@ def test_mandoc_lint_is_clean(page):
     assert shutil.which("mandoc"), "mandoc is installed by dev.sh"
     r = subprocess.run(["mandoc", "-Tlint", "-W", "warning", page], capture_output=True, text=True)
     assert r.returncode == 0 and r.stdout + r.stderr == "", r.stdout + r.stderr
+
+
+def test_the_readme_reads_each_page_from_the_tree():
+    # What the README gives a user of a clone: `man -l PATH`, run as written from the clone.
+    readme = open(os.path.join(SOURCE, "README.md")).read()
+    named = re.findall(r"^man -l (\S+)", readme, re.M)
+    assert {"rs-discover.1", "rs-discoveryd.8"} <= {os.path.basename(p) for p in named}, named
+    for page in named:
+        r = subprocess.run(["man", "-l", page], cwd=SOURCE, capture_output=True, text=True, timeout=60,
+                           env=dict(os.environ, MANPAGER="cat", PAGER="cat", MANWIDTH="80"))
+        text = re.sub(r".\x08", "", r.stdout)
+        title = os.path.basename(page).split(".")[0]
+        assert r.returncode == 0 and "NAME" in text and title in text, (page, r.stderr)
