@@ -256,6 +256,50 @@ def test_librealsense_device_errors(camera):
     assert out["s"] < 3
 
 
+def test_the_camera_tool_is_a_camera_librealsense_opens(daemon, domains):
+    # The README's camera without hardware: python -m rsdiscovery.camera_server, as a user runs it.
+    domain = domains.take(*DOMAIN_RANGE)
+    d = daemon([domain])
+    tool = subprocess.Popen([sys.executable, "-m", "rsdiscovery.camera_server", "--domain", str(domain),
+                             "--serial", "555000000042"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=dict(os.environ, PYTHONPATH=PACKAGE_SRC))
+    try:
+        line = ""
+        while not line.startswith("{"):  # the device-info it serves (realdds may log to stdout too)
+            line = tool.stdout.readline()
+            assert line, tool.stderr.read()
+        info = json.loads(line)
+        assert info["serial"] == "555000000042" and info["product-line"] == "D500"
+        cam_id = f"dds-{domain}-realsense.D555_555000000042"
+        wait_for(lambda: cam_id in d.device_ids(), 20, what="the tool's camera listed")
+        args = "import sys; sys.argv[1:] = ['555000000042', 'frame', '10']\n"
+        r, out = run_python(args + LIBREALSENSE_DEVICE, "unix:" + d.socket)
+        assert out and "error" not in out, r.stdout[-2000:] + r.stderr[-2000:]
+        assert out["name"] == "Intel RealSense D555" and out["serial"] == "555000000042"
+        assert out["sensors"] == ["RGB Camera", "Stereo Module"] and (out["width"], out["height"]) == (640, 480)
+    finally:
+        tool.terminate()
+        assert tool.wait(20) == 0, tool.stderr.read()
+    wait_for(lambda: cam_id not in d.device_ids(), 20, what="the tool's camera removed")
+
+
+def test_a_camera_librealsense_refuses_is_reported_with_its_reason(daemon, realdds_server, domains):
+    # pyrealdds' own example: one colour stream, product line D400. librealsense sees it and
+    # refuses to make a device of it; the error says why, in librealsense's words.
+    domain = domains.take(*DOMAIN_RANGE)
+    d = daemon([domain])
+    info = {"name": "Intel RealSense D455", "serial": "455000000007", "product-line": "D400",
+            "topic-root": "realsense/D455_455000000007"}
+    realdds_server(domain, [info], name="colour-only-server")
+    cam_id = f"dds-{domain}-realsense.D455_455000000007"
+    wait_for(lambda: cam_id in d.device_ids(), 20, what="the colour-only camera listed")
+    args = f"import sys; sys.argv[1:] = ['{cam_id}', 'no', '3']\n"
+    r, out = run_python(args + LIBREALSENSE_DEVICE, "unix:" + d.socket)
+    assert out and out["error"] == "NotReady" and out["stage"] == "listing", r.stdout[-2000:] + r.stderr[-2000:]
+    assert out["message"].endswith("within 3 s; librealsense said: Advanced mode expects camera to have a "
+                                   "depth sensor"), out["message"]
+
+
 # ---- the examples -------------------------------------------------------------------------
 
 def test_examples_print_the_first_frame(camera):

@@ -20,6 +20,7 @@ Needs ``pyrealsense2`` (2.56 or later for DDS cameras): ``pip install 'rsdiscove
 """
 from __future__ import annotations
 
+import re
 import threading
 import time
 from typing import Any, Callable, Dict, List, Mapping, Tuple, Union
@@ -71,6 +72,54 @@ def _matcher(rs: Any, cam: Device) -> Callable[[Any], bool]:
     return match
 
 
+class _Reasons:
+    """librealsense's errors while a :func:`device` waits: the reason a camera it sees is not
+    listed (a device it refuses to create) is in its log and in the callback's exception, and
+    nowhere else. Its log gets one callback per process (librealsense's loggers are global and
+    cannot be taken back one by one); it records only while a wait runs."""
+
+    lock = threading.Lock()
+    installed = False
+    active: List[List[str]] = []
+    CAP = 8  # errors kept per wait: the first say why; a busy domain must not grow the list
+
+    @classmethod
+    def start(cls, rs: Any) -> List[str]:
+        got: List[str] = []
+        with cls.lock:
+            if not cls.installed:
+                try:
+                    rs.log_to_callback(rs.log_severity.error, cls._logged)
+                    cls.installed = True
+                except (AttributeError, RuntimeError, TypeError):  # an older pyrealsense2: the callback's errors only
+                    pass
+            cls.active.append(got)
+        return got
+
+    @classmethod
+    def stop(cls, got: List[str]) -> None:
+        with cls.lock:
+            if got in cls.active:
+                cls.active.remove(got)
+
+    @classmethod
+    def add(cls, got: List[str], text: str) -> None:
+        # "[rs2_create_device( info_list:0x..., index:0 ) UNKNOWN] why": the call is noise to a user.
+        text = re.sub(r"^\[[^\]]*\]\s*", "", text.strip())
+        if text and "null pointer passed" not in text and text not in got and len(got) < cls.CAP:
+            got.append(text)
+
+    @classmethod
+    def _logged(cls, severity: Any, message: Any) -> None:  # on a librealsense thread: never raise
+        try:
+            raw = message.raw() if callable(getattr(message, "raw", None)) else str(message)
+            with cls.lock:
+                for got in cls.active:
+                    cls.add(got, str(raw))
+        except Exception:  # noqa: BLE001
+            pass
+
+
 def device(device_or_serial: Any, *, timeout: float = 5.0, endpoint: Any = None) -> Tuple[Any, Any]:
     """``(context, rs.device)`` for a camera the daemon lists, as soon as librealsense has it.
 
@@ -83,7 +132,8 @@ def device(device_or_serial: Any, *, timeout: float = 5.0, endpoint: Any = None)
 
     Raises :class:`DeviceGone` when the daemon stops listing the camera meanwhile,
     :class:`NotReady` (a ``TimeoutError``, stage ``"listing"``) when librealsense does not
-    list it within `timeout` seconds, and :class:`Pyrealsense2Missing` without pyrealsense2.
+    list it within `timeout` seconds (with librealsense's own errors meanwhile, such as why it
+    refused to make a device: "librealsense said: ..."), and :class:`Pyrealsense2Missing` without pyrealsense2.
     """
     t0 = time.monotonic()
     cam = resolve(device_or_serial, endpoint, timeout)
@@ -98,13 +148,35 @@ def device(device_or_serial: Any, *, timeout: float = 5.0, endpoint: Any = None)
             raise Pyrealsense2Missing("rsdiscovery.librealsense needs pyrealsense2 2.56 or later for network "
                                       "cameras", name="pyrealsense2") from None
         ctx = rs.context()
+    reasons = _Reasons.start(rs)
+    try:
+        return _wait_listed(rs, ctx, cam, endpoint, t0, timeout, reasons)
+    finally:
+        _Reasons.stop(reasons)
+
+
+def _each_device(devices: Any, reasons: List[str]) -> List[Any]:
+    """The devices of a librealsense device list, one at a time: librealsense makes each as it
+    is taken and raises for one it refuses (its reason, kept), which must not hide the others."""
+    out = []
+    for i in range(len(devices)):
+        try:
+            out.append(devices[i])
+        except RuntimeError as e:
+            with _Reasons.lock:
+                _Reasons.add(reasons, str(e))
+    return out
+
+
+def _wait_listed(rs: Any, ctx: Any, cam: Device, endpoint: Any, t0: float, timeout: float,
+                 reasons: List[str]) -> Tuple[Any, Any]:
     match = _matcher(rs, cam)
     found = threading.Event()
     box: List[Any] = []
 
     def changed(info: Any) -> None:  # on a librealsense thread
         try:
-            for d in info.get_new_devices():
+            for d in _each_device(info.get_new_devices(), reasons):
                 if match(d):
                     box.append(d)
                     found.set()
@@ -113,7 +185,7 @@ def device(device_or_serial: Any, *, timeout: float = 5.0, endpoint: Any = None)
 
     # The callback first, then the list: a camera added in between is not missed.
     ctx.set_devices_changed_callback(changed)
-    for d in ctx.query_devices():  # no wait with "query-devices-max": 0
+    for d in _each_device(ctx.query_devices(), reasons):  # no wait with "query-devices-max": 0
         if match(d):
             return ctx, d
     still = StillListed(cam, endpoint)
@@ -125,7 +197,14 @@ def device(device_or_serial: Any, *, timeout: float = 5.0, endpoint: Any = None)
                 raise gone_error(cam, now - t0)
             where = f"on DDS domain {cam.domain}" if is_network(cam) else "on USB"
             raise NotReady(f"librealsense did not list camera {cam.id} ({cam.name}) {where} within "
-                           f"{timeout:g} s", "listing", now - t0)
+                           f"{timeout:g} s{_said(reasons)}", "listing", now - t0)
         if still.gone():
             raise gone_error(cam, now - t0)
     return ctx, box[0]
+
+
+def _said(reasons: List[str]) -> str:
+    with _Reasons.lock:
+        if not reasons:
+            return ""
+        return "; librealsense said: " + "; ".join(reasons)
