@@ -2,6 +2,7 @@
 // (config_keys.hpp) and merged into one Config: defaults, the file, then flags.
 #include "config/config.hpp"
 
+#include "config/config_check.hpp"
 #include "config/config_keys.hpp"
 
 #include "rsd_model/socket_path.hpp"
@@ -13,6 +14,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <set>
+#include <vector>
 #include <sstream>
 #include <unistd.h>
 
@@ -25,6 +27,39 @@ std::string read_file(const std::string& path) {
   std::ostringstream text;
   text << in.rdbuf();
   return text.str();
+}
+
+// Edits between two words (Levenshtein, a swap of two neighbours counting one), for
+// "did you mean": a typo is one or two.
+std::size_t edits(const std::string& a, const std::string& b) {
+  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+  for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+  for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i)
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+    }
+  return d[a.size()][b.size()];
+}
+
+// 'WHERE:LINE:COLUMN: unknown key "x"; did you mean "y"? (known: ...)', the place as an
+// editor jumps to it. No ': "' in it: --check-config would take it for a bad value's.
+std::string unknown_key(const std::string& where, const std::string& text, const std::string& key) {
+  std::string known, nearest;
+  std::size_t best = 3;  // more edits than two is another word, not a typo
+  for (const auto& each : config_keys()) {
+    known += (known.empty() ? "" : ", ") + std::string(each.file);
+    // A key far longer than any known one is no typo of one (and costs its length squared).
+    if (key.size() > 64) continue;
+    if (const std::size_t d = edits(key, each.file); d < best) {
+      best = d;
+      nearest = each.file;
+    }
+  }
+  const auto [line, column] = top_level_key_position(text, key);
+  return where + (line ? ":" + std::to_string(line) + ":" + std::to_string(column) : "") + ": unknown key \"" + key +
+         "\"" + (nearest.empty() ? "" : "; did you mean \"" + nearest + "\"?") + " (known: " + known + ")";
 }
 
 }  // namespace
@@ -45,11 +80,7 @@ void apply_config_json(const std::string& text, Config& config) {
   if (!doc.is_object()) throw ConfigError(where + ": must be a JSON object");
   for (const auto& [key, value] : doc.items()) {
     const ConfigKey* k = find_file_key(key);
-    if (!k) {
-      std::string known;
-      for (const auto& each : config_keys()) known += (known.empty() ? "" : ", ") + std::string(each.file);
-      throw ConfigError(where + ": unknown key \"" + key + "\" (known: " + known + ")");
-    }
+    if (!k) throw ConfigError(unknown_key(where, text, key));
     k->from_file(value, config, where + ": \"" + key + "\"");
   }
 }

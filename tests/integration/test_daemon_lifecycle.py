@@ -43,7 +43,8 @@ def test_bad_usage_is_exit_2_with_a_clear_message(args, message):
 @pytest.mark.parametrize("text, message", [
     ("{not json", "not valid JSON"),
     ('{"domains": [1, 500]}', "0 to 232"),
-    ('{"domian": [1]}', 'unknown key "domian"'),
+    ('{"domian": [1]}', ':1:2: unknown key "domian"; did you mean "domains"?'),
+    ('{\n  "usb": true,\n  "sockte": "off"\n}', ':3:3: unknown key "sockte"; did you mean "socket"?'),
     ('{"usb": "yes"}', '"usb" must be true or false'),
 ])
 def test_bad_config_file_is_exit_2_naming_the_file(tmp_path, text, message):

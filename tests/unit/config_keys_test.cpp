@@ -155,8 +155,17 @@ TEST(ConfigKeys, TheUnknownKeyMessageListsEveryKey) {
     FAIL() << "no error";
   } catch (const rsd::ConfigError& e) {
     const std::string message = e.what();
-    EXPECT_EQ(message.rfind("config: unknown key \"domian\" (known: ", 0), 0u) << message;
+    // Where it is (line and column, as an editor jumps), and the key it was meant to be.
+    EXPECT_EQ(message.rfind("config:1:2: unknown key \"domian\"; did you mean \"domains\"? (known: ", 0), 0u)
+        << message;
     EXPECT_EQ(names_in(between(message, "(known: ", ")")), table_file_keys()) << message;
+  }
+  try {
+    rsd::apply_config_json("{\n  \"usb\": true,\n    \"frobnicate\": 1\n}", c);
+    FAIL() << "no error";
+  } catch (const rsd::ConfigError& e) {
+    // Nothing near it: no guess.
+    EXPECT_EQ(std::string(e.what()).rfind("config:3:5: unknown key \"frobnicate\" (known: ", 0), 0u) << e.what();
   }
 }
 
