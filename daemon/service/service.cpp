@@ -82,7 +82,12 @@ Service::Clock::duration Service::tick(Clock::time_point now) {
     ready_sent_ = true;
     last_status_ = current_status(true);
     notifier_.send("READY=1\nSTATUS=" + last_status_);
-    log::notice(std::string(reloading_ ? "reloaded: " : "ready: ") + last_status_);
+    // The count is the table's only once every domain's first discovery is over (a
+    // camera already serving arrives after it): until then the log says it is not.
+    done_word_ = reloading_ ? "reloaded: " : "ready: ";
+    if (!domains_.discovery_complete())
+      log::notice(std::string(reloading_ ? "reloaded" : "listening") + "; discovery in progress on DDS domain" +
+                  (domains_.ids().size() == 1 ? " " : "s ") + join_ints(domains_.ids()));
     reloading_ = false;
   } else {
     const std::string status = current_status(ready_sent_);
@@ -91,8 +96,13 @@ Service::Clock::duration Service::tick(Clock::time_point now) {
       notifier_.send("STATUS=" + status);
     }
   }
+  if (!done_word_.empty() && ready_sent_ && domains_.discovery_complete()) {
+    log::notice(done_word_ + current_status(true));
+    done_word_.clear();
+  }
 
   Clock::duration wait = std::chrono::seconds(1);  // STATUS= follows the table within this
+  if (!done_word_.empty()) wait = std::chrono::milliseconds(100);  // the log line follows completion closely
   if (const auto interval = notifier_.watchdog()) {
     if (now >= next_watchdog_) {
       // Every half interval, as sd_watchdog_enabled(3) advises; the main loop
@@ -127,6 +137,11 @@ void Service::reload() {
   } catch (const ConfigError& e) {
     note_ = std::string("reload failed, still running the previous configuration: ") + e.what();
     log::error(note_);
+    // Nothing changed: ready again at once, and no "reloaded" line for what was not.
+    reloading_ = false;
+    ready_sent_ = true;
+    last_status_ = current_status(true);
+    notifier_.send("READY=1\nSTATUS=" + last_status_);
     return;
   }
   const Config& next = cl.config;

@@ -65,6 +65,7 @@ class Service {
   bool ready_sent_ = false;  // false at start and during a reload: READY=1 is owed
   bool reloading_ = false;
   std::string note_;         // what went wrong in the last reload; "" when it all took
+  std::string done_word_;    // "ready: " or "reloaded: ", logged once discovery completes; "" when said
   std::string last_status_;
   std::uint64_t counted_generation_ = ~std::uint64_t{0};
   std::size_t device_count_ = 0;

@@ -73,6 +73,19 @@ def test_logs_to_a_file_read_with_time_and_level_words(free_domain, daemon):
     assert any(re.match(stamp + "rs-discoveryd .* serving", l) for l in lines), lines[:5]
 
 
+def test_the_ready_line_counts_the_cameras_already_serving(free_domain, daemon, realdds_server):
+    # A camera serving before the daemon starts arrives after the daemon reads its domain:
+    # the log gives a count only once the first discovery is over, and then the right one.
+    realdds_server(free_domain, [device_info(1)])
+    d = daemon([free_domain])
+    wait_for(lambda: "notice: ready: " in d.log(), 20, what="the ready line")
+    lines = d.log().splitlines()
+    assert any(f"notice: listening; discovery in progress on DDS domain {free_domain}" in l for l in lines), lines
+    ready = [l for l in lines if "notice: ready: " in l]
+    assert len(ready) == 1 and re.search(rf"ready: 1 device on DDS domain {free_domain}( and USB)?$", ready[0]), lines
+    assert d.get_json("/healthz")["complete"] is True
+
+
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_signal_stops_within_a_second_closing_streams_and_socket(free_domain, daemon, realdds_server, sig):
     realdds_server(free_domain, [device_info(1)])

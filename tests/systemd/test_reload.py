@@ -73,6 +73,8 @@ def test_invalid_config_keeps_the_running_one_and_says_why(tmp_path, domains, da
     assert ready["STATUS"].startswith(f"1 device on DDS domain {a}")
     assert joined(d) == [a] and len(d.devices()) == 1
     assert f"error: reload failed, still running the previous configuration: {config}" in d.log()
+    # Nothing was reloaded, and the log never says it was.
+    assert "reloaded" not in d.log(), d.log()
 
     config.write_text("{not json")
     ready = reload(d, notify_socket)
@@ -82,6 +84,7 @@ def test_invalid_config_keeps_the_running_one_and_says_why(tmp_path, domains, da
     write_config(config, domains=[a], usb=False, **{"log-level": "info"})
     ready = reload(d, notify_socket)
     assert ready["STATUS"] == f"1 device on DDS domain {a}", ready
+    wait_for(lambda: f"notice: reloaded: 1 device on DDS domain {a}" in d.log(), what="the reloaded line")
     assert d.proc.poll() is None
 
 
