@@ -7,10 +7,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include <dirent.h>
+#include <pwd.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <fstream>
+#include <utility>
+#include <vector>
 
 namespace rsdiscover::doctor {
 namespace {
@@ -18,33 +23,83 @@ namespace {
 using rsdiscovery::detail::group_name;
 using rsdiscovery::detail::user_name;
 
-// The group that opens `path` to this user: that of the first directory on the way
-// closed to this user, else the socket's own.
-std::optional<std::string> group_to_join(const std::string& path) {
+// The file that closes `path` to this user: the first directory on the way closed to
+// this user, else the socket itself; its owner and group.
+std::optional<struct stat> closed_by(const std::string& path) {
   struct stat st {};
   for (auto slash = path.find('/', 1); slash != std::string::npos; slash = path.find('/', slash + 1)) {
     const std::string dir = path.substr(0, slash);
-    if (::access(dir.c_str(), X_OK) != 0) return ::stat(dir.c_str(), &st) == 0 ? std::optional(group_name(st.st_gid))
-                                                                               : std::nullopt;
+    if (::access(dir.c_str(), X_OK) != 0) return ::stat(dir.c_str(), &st) == 0 ? std::optional(st) : std::nullopt;
   }
-  if (::stat(path.c_str(), &st) == 0) return group_name(st.st_gid);
+  if (::stat(path.c_str(), &st) == 0) return st;
   return std::nullopt;
 }
 
-// The daemon's HTTP address, as a client on this host reaches it: the system
-// configuration's "http" (when this user may read it), else the default; "" when
-// it is off.
-std::string local_http_endpoint() {
-  std::string http = "127.0.0.1:8035";
-  std::ifstream file("/etc/rs-discoveryd/config.json");
-  if (file) {
-    const auto doc = nlohmann::json::parse(file, nullptr, false);
-    if (doc.is_object() && doc.contains("http") && doc["http"].is_string()) http = doc["http"].get<std::string>();
-  }
+// Whether joining group `gid` would give more than the socket: root's group, the groups
+// that administer a Debian system or its devices, or the owner's own (private) group.
+bool grants_more(gid_t gid, uid_t owner) {
+  static const char* const kSystem[] = {"root", "sudo", "wheel", "adm", "admin", "staff", "disk", "shadow", "kmem",
+                                        "sys", "tty", "docker", "lxd", "libvirt", "systemd-journal", "plugdev"};
+  const std::string name = group_name(gid);
+  if (gid == 0 || std::find(std::begin(kSystem), std::end(kSystem), name) != std::end(kSystem)) return true;
+  const passwd* pw = ::getpwuid(owner);
+  return pw && owner != 0 && pw->pw_gid == gid;
+}
+
+// "http://HOST:PORT" as a client on this host reaches the daemon's "http" value (a
+// wildcard address by loopback); "" when it is off.
+std::string reachable_http(std::string http) {
   if (http == "off" || http.empty()) return "";
   if (http.rfind("0.0.0.0:", 0) == 0) http = "127.0.0.1:" + http.substr(8);
   if (http.rfind("[::]:", 0) == 0) http = "[::1]:" + http.substr(5);
   return "http://" + http;
+}
+
+// The "http" of a config file, when this user may read it.
+std::optional<std::string> http_in_file(const std::string& path) {
+  std::ifstream file(path);
+  if (!file) return std::nullopt;
+  const auto doc = nlohmann::json::parse(file, nullptr, false);
+  if (doc.is_object() && doc.contains("http") && doc["http"].is_string()) return doc["http"].get<std::string>();
+  return std::nullopt;
+}
+
+// The HTTP addresses the daemons on this host were given, the one on `socket_path`
+// first, then those given no --socket: their command lines (readable by every user,
+// unlike their sockets) name --http, or the --config file that does. Then the system
+// configuration's, then the default. Candidates only: the caller asks each.
+std::vector<std::string> local_http_candidates(const std::string& socket_path) {
+  std::vector<std::string> mine, others;
+  if (DIR* proc = ::opendir("/proc")) {
+    while (const dirent* e = ::readdir(proc)) {
+      if (e->d_name[0] < '1' || e->d_name[0] > '9') continue;
+      std::ifstream in(std::string("/proc/") + e->d_name + "/cmdline", std::ios::binary);
+      std::vector<std::string> argv;
+      for (std::string arg; std::getline(in, arg, '\0');) argv.push_back(arg);
+      if (argv.empty() || argv[0].substr(argv[0].rfind('/') + 1) != "rs-discoveryd") continue;
+      std::optional<std::string> http, config, socket;
+      for (std::size_t i = 1; i < argv.size(); ++i) {
+        for (auto [flag, into] : {std::pair{"--http", &http}, {"--config", &config}, {"-c", &config},
+                                  {"--socket", &socket}}) {
+          const std::string f = flag;
+          if (argv[i] == f && i + 1 < argv.size()) *into = argv[i + 1];
+          else if (argv[i].rfind(f + "=", 0) == 0) *into = argv[i].substr(f.size() + 1);
+        }
+      }
+      if (!http && config) http = http_in_file(*config);
+      if (!http && !config) http = http_in_file("/etc/rs-discoveryd/config.json");
+      // A daemon given another socket is not the one asked for; one given none may be on it.
+      if (socket && *socket != socket_path) continue;
+      (socket ? mine : others).push_back(reachable_http(http.value_or("127.0.0.1:8035")));
+    }
+    ::closedir(proc);
+  }
+  mine.insert(mine.end(), others.begin(), others.end());
+  mine.push_back(reachable_http(http_in_file("/etc/rs-discoveryd/config.json").value_or("127.0.0.1:8035")));
+  std::vector<std::string> out;
+  for (const auto& c : mine)
+    if (std::find(out.begin(), out.end(), c) == out.end()) out.push_back(c);
+  return out;
 }
 
 bool answers(const std::string& endpoint) {
@@ -66,8 +121,19 @@ bool answers(const std::string& endpoint) {
 // What to do when the daemon could not be asked: by the cause (issue 23: a user
 // without rights on the socket was told to start a daemon that runs).
 std::string unreachable_hint(const rsdiscovery::Error& e, const rsdiscovery::Endpoint& endpoint) {
-  const std::string http = endpoint.kind == rsdiscovery::Endpoint::Kind::unix_socket ? local_http_endpoint() : "";
-  const bool http_answers = answers(http);
+  // The first address a daemon answers at, else the likeliest one: named either way.
+  std::string http;
+  bool http_answers = false;
+  if (endpoint.kind == rsdiscovery::Endpoint::Kind::unix_socket) {
+    const auto candidates = local_http_candidates(endpoint.path);
+    for (const auto& c : candidates)
+      if (answers(c)) {
+        http = c;
+        http_answers = true;
+        break;
+      }
+    if (!http_answers && !candidates.empty()) http = candidates.front();
+  }
   const std::string use_http =
       http.empty() ? std::string()
                    : "ask over HTTP, which every user of this host may: 'rs-discover --endpoint " + http + " doctor'" +
@@ -84,11 +150,20 @@ std::string unreachable_hint(const rsdiscovery::Error& e, const rsdiscovery::End
       out += " (owned by " + user_name(st.st_uid) + ":" + group_name(st.st_gid) + ", mode " + mode + ")";
     }
     out += ": the daemon runs, but this user (" + me + ") may not use its socket";
-    if (const auto g = group_to_join(endpoint.path))
-      out += ": join group " + *g + " ('sudo usermod -aG " + *g + " " + me + "', then log in again)" +
+    const auto closed = closed_by(endpoint.path);
+    if (closed && !grants_more(closed->st_gid, closed->st_uid)) {
+      const std::string g = group_name(closed->st_gid);
+      out += ": join group " + g + " ('sudo usermod -aG " + g + " " + me + "', then log in again)" +
              (use_http.empty() ? "" : ", or " + use_http);
-    else if (!use_http.empty())
-      out += ": " + use_http;
+    } else {
+      // Joining that group would give this user far more than the socket.
+      if (closed)
+        out += "; its group " + group_name(closed->st_gid) + " grants much more than this socket: do not join it";
+      out += "; give the socket a group of its own: the packaged service's socket unit does (SocketGroup=" +
+             std::string("rs-discoveryd, then 'sudo usermod -aG rs-discoveryd ") + me +
+             "'), as does a systemd socket unit of your own with SocketGroup=";
+      if (!use_http.empty()) out += "; or " + use_http;
+    }
     return out;
   }
   if (e.code() == rsdiscovery::ErrorCode::not_running && http_answers)

@@ -260,3 +260,28 @@ def test_a_user_without_socket_rights_is_told_the_group_or_http(daemon, free_dom
         assert d.healthy()
     finally:
         shutil.rmtree(run_dir, ignore_errors=True)
+
+
+def test_a_root_owned_socket_is_never_a_group_to_join(daemon, free_domain):
+    # The daemon run as root from the tree: its socket is root:root 0660. Joining root
+    # would give far more than the socket; the doctor says how to give it a group of its
+    # own, and names the HTTP address this daemon really listens on (not the default).
+    run_dir = tempfile.mkdtemp(prefix="rsd-doctor-")
+    os.chmod(run_dir, 0o755)
+    try:
+        sock = os.path.join(run_dir, "api.sock")
+        d = daemon([free_domain], socket=sock)
+        st = os.stat(sock)
+        assert (st.st_uid, st.st_gid, st.st_mode & 0o777) == (0, 0, 0o660)
+        r = subprocess.run(["setpriv", "--reuid=nobody", "--regid=nogroup", "--clear-groups", CLI, "--endpoint",
+                            "unix:" + sock, "doctor", "--json"], capture_output=True, text=True, timeout=30)
+        assert r.returncode == 3, (r.returncode, r.stdout, r.stderr)
+        (line,) = said(json.loads(r.stdout)["findings"], "fail", "daemon", "permission denied")
+        text = line["text"]
+        assert "join group root" not in text and "usermod -aG root" not in text, text
+        assert "its group root grants much more than this socket: do not join it" in text, text
+        assert "give the socket a group of its own" in text and "SocketGroup=" in text, text
+        assert f"'rs-discover --endpoint http://127.0.0.1:{d.port} doctor' (it answers there)" in text, text
+        assert "127.0.0.1:8035" not in text or d.port == 8035, text
+    finally:
+        shutil.rmtree(run_dir, ignore_errors=True)
