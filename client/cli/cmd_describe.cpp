@@ -32,8 +32,16 @@ int run(const ParsedArgs& args) {
   const std::string& key = args.positional[0];
   const double timeout = args.get_seconds("timeout", 35);
   auto client = make_client(args);
-  const auto description =
-      client.describe(key, std::chrono::milliseconds(static_cast<long long>(timeout * 1000)));
+  rsdiscovery::Description description;
+  try {
+    description = client.describe(key, std::chrono::milliseconds(static_cast<long long>(timeout * 1000)));
+  } catch (const rsdiscovery::Error& e) {
+    // A key the daemon has no camera for: said as 'get' says it (a camera it has that
+    // cannot be described keeps the daemon's reason).
+    if (e.code() != rsdiscovery::ErrorCode::not_found || std::string(e.what()).rfind("no device '", 0) != 0) throw;
+    report_no_device(key);
+    return kNotFound;
+  }
   if (args.has("json")) {
     std::printf("%s\n", nlohmann::json::parse(description.json).dump(output().color ? 2 : -1).c_str());
     return kOk;

@@ -29,10 +29,7 @@ int run(const ParsedArgs& args) {
   for (const auto& key : args.positional) {
     auto device = client.find_device(key);
     if (!device) {
-      std::fprintf(stderr,
-                   "rs-discover: no device '%s' (ids are listed by 'rs-discover list -q'; 'rs-discover doctor' "
-                   "says why a camera may be missing)\n",
-                   key.c_str());
+      report_no_device(key);
       status = kNotFound;
       continue;
     }

@@ -105,6 +105,10 @@ rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args);
 // The warning for an answer taken before the daemon's first discovery ended.
 void warn_incomplete();
 
+// "rs-discover: no device 'KEY' (where the ids are; what says why one is missing)", on
+// stderr: the one wording of every command that looks a camera up.
+void report_no_device(const std::string& key);
+
 // Prints "rs-discover: message" for an error and returns the exit code it maps to.
 int report(const rsdiscovery::Error& error);
 

@@ -111,6 +111,13 @@ void warn_incomplete() {
              stderr);
 }
 
+void report_no_device(const std::string& key) {
+  std::fprintf(stderr,
+               "rs-discover: no device '%s' (ids are listed by 'rs-discover list -q'; 'rs-discover doctor' "
+               "says why a camera may be missing)\n",
+               key.c_str());
+}
+
 int report(const rsdiscovery::Error& e) {
   std::fprintf(stderr, "rs-discover: %s\n", e.what());
   switch (e.code()) {

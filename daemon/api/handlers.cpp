@@ -33,6 +33,12 @@ bool complete(const std::vector<DomainStatus>& list) {
   return std::all_of(list.begin(), list.end(), [](const DomainStatus& d) { return d.complete; });
 }
 
+// A 404 for a camera key, in the words the clients use ("no device 'X'"), and where the
+// keys are: an id, a serial or a topic-root, as the list gives them.
+std::string no_device(const std::string& key) {
+  return "no device '" + key + "' (no camera listed has it as its id, serial or topic-root; GET /v1/devices lists them)";
+}
+
 std::map<int, std::size_t> count_by_domain(const std::vector<EntryPtr>& devices) {
   std::map<int, std::size_t> out;
   for (const auto& e : devices)
@@ -159,7 +165,7 @@ void Handlers::handle_device(const ApiRequest& req, ApiResponse& res) {
   }
   // A 404 from an incomplete table may turn into a 200 in a moment: say which it
   // is, so a client can wait instead of reporting the camera absent.
-  send_json(res, 404, {{"error", "no device with id '" + id + "'" +
+  send_json(res, 404, {{"error", no_device(id) +
                                      (done ? "" : " (the daemon's first discovery is not complete yet)")},
                        {"status", 404},
                        {"complete", done}});
@@ -171,7 +177,7 @@ void Handlers::handle_description(const ApiRequest& req, ApiResponse& res) {
   const auto hits = lookup(name);
   if (hits.size() != 1)
     return send_error(res, hits.empty() ? 404 : 409,
-                      hits.empty() ? "no device with id '" + name + "'"
+                      hits.empty() ? no_device(name)
                                    : std::to_string(hits.size()) + " devices match '" + name + "'; name one by its id");
   // Blocks this worker until the camera's server has sent its set (a few ms once
   // asked; the first time for a device) or the describe timeout.

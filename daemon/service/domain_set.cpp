@@ -146,7 +146,7 @@ bool DomainSet::discovery_complete() const {
 DeviceDescription DomainSet::describe(const std::string& id, std::chrono::milliseconds wait) const {
   using Outcome = DeviceDescription::Outcome;
   const auto device = table_.find(id);
-  if (!device) return {Outcome::not_found, nullptr, "no device with id '" + id + "'"};
+  if (!device) return {Outcome::not_found, nullptr, "no device '" + id + "'"};
   const auto domain = device->find("domain");
   const auto topic_root = device->find("topic-root");
   if (domain == device->end() || !domain->is_number_integer() || topic_root == device->end() ||
@@ -160,9 +160,9 @@ DeviceDescription DomainSet::describe(const std::string& id, std::chrono::millis
     std::lock_guard lock(mutex_);
     if (auto it = sessions_.find(domain->get<int>()); it != sessions_.end()) session = it->second;
   }
-  if (!session) return {Outcome::not_found, nullptr, "no device with id '" + id + "'"};
+  if (!session) return {Outcome::not_found, nullptr, "no device '" + id + "'"};
   const auto result = session->describe(topic_root->get<std::string>(), wait);
-  if (!result) return {Outcome::not_found, nullptr, "no device with id '" + id + "'"};
+  if (!result) return {Outcome::not_found, nullptr, "no device '" + id + "'"};
   switch (result->outcome) {
     case dds::DescribeResult::Outcome::ok:
       return {Outcome::ok, result->description, ""};

@@ -47,7 +47,11 @@ def test_error_bodies(daemon, free_domain):
         err = json.loads(text)
         # "complete" tells whether the camera may still turn up (the daemon started moments ago).
         assert err["status"] == 404 and isinstance(err["complete"], bool)
-        assert err["error"].startswith("no device with id 'dds-0-realsense.nothing'")
+        assert err["error"].startswith("no device 'dds-0-realsense.nothing' (no camera listed has it as its id, "
+                                        "serial or topic-root; GET /v1/devices lists them)")
+        # A serial no camera has: the same words (it is a key like any other).
+        code, text = curl(target, "/v1/devices/999999")
+        assert code == 404 and json.loads(text)["error"].startswith("no device '999999' (no camera listed"), text
         validate_response("/v1/devices/{id}", 404, err)
 
         code, text = curl(target, "/no/such/path")

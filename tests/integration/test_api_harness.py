@@ -149,12 +149,17 @@ def test_bad_filters_are_400(harness, query):
     validate_response("/v1/devices", 400, err)
 
 
+# The 404 of a camera key, after "no device 'KEY' ": where the keys are.
+NO_DEVICE = "(no camera listed has it as its id, serial or topic-root; GET /v1/devices lists them)"
+
+
 def test_device_404_and_unknown_paths(harness):
     import json
     h = harness(http=False)
     status, _, body = request(h.socket, "/v1/devices/dds-0-nope")
     assert status == 404
-    assert json.loads(body) == {"error": "no device with id 'dds-0-nope'", "status": 404, "complete": True}
+    assert json.loads(body) == {"error": f"no device 'dds-0-nope' {NO_DEVICE}", "status": 404,
+                                "complete": True}
     validate_response("/v1/devices/{id}", 404, json.loads(body))
     # "/" is the page and /openapi.yaml the spec (test_web_page.py); every other unknown path a JSON 404.
     for path in ("/index.html", "/v1", "/v1/devices/", "/v1/devices/a/b", "/v2/devices", "/healthz/x", "/metricsx"):
@@ -267,7 +272,8 @@ def test_answers_say_whether_the_table_is_complete(harness):
     h.command('domains ' + json.dumps([{"domain": 3, "complete": True}, {"domain": 4, "complete": True}]))
     listing, health, domains, missing = answers()
     assert listing["complete"] is True and health["complete"] is True and domains["complete"] is True
-    assert missing == {"error": "no device with id 'dds-4-later'", "status": 404, "complete": True}
+    assert missing == {"error": f"no device 'dds-4-later' {NO_DEVICE}",
+                       "status": 404, "complete": True}
     assert metric(parse_metrics(get_text(h.socket, "/metrics")), "rsd_table_complete") == 1
 
 
