@@ -71,8 +71,11 @@ const Command kDoctorCommand = {
     "participants are on; USB cameras on a USB 2 link and USB the daemon cannot watch;\n"
     "an HTTP address in the configuration that its socket unit does not listen on;\n"
     "which hosts share USB cameras with it (share-usb), and other daemons that share none.\n"
-    "Exit status 0 when nothing found explains a missing camera, 1 when a line says\n"
-    "'warn' or 'fail' (a likely cause); 'info' lines are worth knowing and explain none.",
+    "'info' lines are worth knowing and explain none.\n"
+    "Exit status: 0 nothing found explains a missing camera; 1 a line says 'warn' or\n"
+    "'fail' (a likely cause); 2 usage error; 3 the daemon cannot be asked (not running,\n"
+    "or no rights on its socket); 4 something other than rs-discoveryd answers, or its\n"
+    "reply was not understood.",
     {
         {"json", 'j', nullptr, "print {\"findings\": [{\"verdict\", \"topic\", \"text\"}, ...]}"},
         {"listen", 0, "S", "listen S seconds for participants on other domains (default 3; 0: do not)"},

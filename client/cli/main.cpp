@@ -28,7 +28,7 @@ void usage(std::FILE* out) {
       "$XDG_RUNTIME_DIR/rs-discoveryd.sock otherwise, falling back to the system\n"
       "service's /run/rs-discoveryd/api.sock when only that one exists).\n"
       "\nExit status: 0 ok, 1 not found or timed out, 2 usage error, 3 daemon unreachable,\n"
-      "4 the daemon's answer was not understood (version mismatch, malformed reply).\n",
+      "4 the answer was not understood (not rs-discoveryd, version mismatch, malformed reply).\n",
       out);
 }
 

@@ -170,7 +170,7 @@ void print_help(const Command& c, std::FILE* out) {
   show(c.options);
   show(kCommonOptions);
   std::fputs("\nExit status: 0 ok, 1 not found or timed out, 2 usage error, 3 daemon unreachable,\n"
-             "4 the daemon's answer was not understood (version mismatch, malformed reply).\n",
+             "4 the answer was not understood (not rs-discoveryd, version mismatch, malformed reply).\n",
              out);
 }
 

@@ -215,6 +215,12 @@ Error Transport::status_error(const std::string& path, const Reply& reply) {
         daemon_version = hd["version"].get<std::string>();
     } catch (const Error&) {
     }
+    // No rs-discoveryd's /healthz there either: another server has the address.
+    if (daemon_version.empty())
+      return Error(ErrorCode::version_mismatch,
+                   "something other than rs-discoveryd answers at " + where + ": GET " + path + " got HTTP " +
+                       std::to_string(reply.status) + ", and it has no rs-discoveryd /healthz; is the endpoint right?",
+                   reply.status);
     return Error(ErrorCode::version_mismatch,
                  "version mismatch: rs-discoveryd at " + where + " does not serve GET " + path +
                      " (HTTP " + std::to_string(reply.status) + "); this client speaks API v1 (" +

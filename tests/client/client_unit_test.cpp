@@ -650,6 +650,20 @@ TEST(Client, AnotherApiVersionIsAVersionMismatch) {
   EXPECT_EQ(code_of([&] { c.list_devices(); }), ErrorCode::http_error);
 }
 
+TEST(Client, AnotherServerIsNotCalledAnotherVersion) {
+  // Not rs-discoveryd at all: 404 everywhere, /healthz too.
+  RawServer server([&](int fd, const std::string&) { reply(fd, 404, "<html>Not Found</html>"); });
+  try {
+    Client(server.endpoint()).list_devices();
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::version_mismatch);
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("something other than rs-discoveryd answers at " + server.endpoint(), 0), 0u) << what;
+    EXPECT_EQ(what.find("version mismatch"), std::string::npos) << what;
+  }
+}
+
 TEST(Client, ADaemonOlderThanCompletenessIsNotWaitedFor) {
   // Its list has no "complete": there is nothing to wait for, so one request answers.
   std::atomic<int> lists{0};

@@ -84,7 +84,14 @@ def run(argv: Optional[List[str]] = None) -> int:
             found = client.participants(args.domain, None if args.all else "alive")
             print(json.dumps([p.raw for p in found], indent=None if args.json else 2))
         elif args.command == "health":
-            print(json.dumps(client.health().raw, indent=None if args.json else 2))
+            h = client.health()
+            if args.json:
+                print(json.dumps(h.raw))
+            else:  # the line rs-discover health prints
+                print(f"{h.status}: rs-discoveryd {h.version or '(version unknown)'} at {client.endpoint}, "
+                      f"{h.devices} device{'' if h.devices == 1 else 's'}"
+                      f"{'' if h.complete else ' so far (first discovery still running)'}")
+            return 0 if h.status == "ok" else 1
     except KeyboardInterrupt:
         return 0
     except ValueError as e:  # a bad argument the parser let through (a domain of 300)
@@ -94,7 +101,8 @@ def run(argv: Optional[List[str]] = None) -> int:
         print(f"python -m rsdiscovery: {e}", file=sys.stderr)
         return 1
     except (DaemonNotRunning, PermissionDenied) as e:
-        print(f"python -m rsdiscovery: {e}", file=sys.stderr)
+        # The library's hint names its endpoint= argument; here it is an option.
+        print(f"python -m rsdiscovery: {str(e).replace(' with endpoint= ', ' with --endpoint ')}", file=sys.stderr)
         return 3
     except (MalformedReply, VersionMismatch, RSDiscoveryError) as e:
         print(f"python -m rsdiscovery: {e}", file=sys.stderr)

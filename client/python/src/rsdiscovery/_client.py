@@ -146,10 +146,23 @@ class Client:
         except (ValueError, AttributeError):
             detail = ""
         if status in (404, 405):
+            if not self._is_rs_discoveryd():
+                return VersionMismatch(f"something other than rs-discoveryd answers at {self.endpoint}: GET {path} "
+                                       f"got HTTP {status}, and it has no rs-discoveryd /healthz; is the endpoint "
+                                       "right?")
             return VersionMismatch(f"version mismatch: rs-discoveryd at {self.endpoint} does not serve GET {path} "
                                    f"(HTTP {status}); this client speaks API v1")
         return HTTPError(f"rs-discoveryd at {self.endpoint} answered HTTP {status} to GET {path}"
                          + (f": {detail}" if detail else ""), status)
+
+    def _is_rs_discoveryd(self) -> bool:
+        """Whether what answers has rs-discoveryd's /healthz (a version), as the C++ client asks."""
+        try:
+            status, body = self._request("/healthz")
+            doc = json.loads(body) if status == 200 else None
+        except (RSDiscoveryError, ValueError):
+            return False
+        return isinstance(doc, dict) and isinstance(doc.get("version"), str)
 
     def _get_json(self, path: str) -> Dict[str, Any]:
         status, body = self._request(path)
