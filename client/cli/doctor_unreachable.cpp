@@ -159,9 +159,9 @@ std::string unreachable_hint(const rsdiscovery::Error& e, const rsdiscovery::End
       // Joining that group would give this user far more than the socket.
       if (closed)
         out += "; its group " + group_name(closed->st_gid) + " grants much more than this socket: do not join it";
-      out += "; give the socket a group of its own: the packaged service's socket unit does (SocketGroup=" +
-             std::string("rs-discoveryd, then 'sudo usermod -aG rs-discoveryd ") + me +
-             "'), as does a systemd socket unit of your own with SocketGroup=";
+      out += "; give the socket a group of its own: the packaged service's socket unit does "
+             "(SocketGroup=rs-discoveryd, then 'sudo usermod -aG rs-discoveryd " +
+             me + "'), as does a systemd socket unit of your own with SocketGroup=";
       if (!use_http.empty()) out += "; or " + use_http;
     }
     return out;
