@@ -98,9 +98,8 @@ class _Reasons:
 
     @classmethod
     def stop(cls, got: List[str]) -> None:
-        with cls.lock:
-            if got in cls.active:
-                cls.active.remove(got)
+        with cls.lock:  # by identity: two waits' lists may be equal
+            cls.active[:] = [g for g in cls.active if g is not got]
 
     @classmethod
     def add(cls, got: List[str], text: str) -> None:
