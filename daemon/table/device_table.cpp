@@ -177,7 +177,10 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
         merged = true;
       }
     // A merge is no departure: the camera is still listed, under the entry it joined.
-    if (!merged && removal) removed.reason = removal->reason;
+    if (!merged && removal) {
+      removed.reason = removal->reason;
+      ++counts_.removals[static_cast<std::size_t>(removal->reason)];
+    }
     events.push_back(record(std::move(removed)));
     if (!events.back().reason) continue;
     const DeviceEvent& ev = events.back();
@@ -196,6 +199,7 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
       added.entry = devices_.emplace(entry_id, make_entry(doc)).first->second;
       if (const auto gone = gone_.find(entry_id); gone != gone_.end()) {
         added.back = true;
+        ++counts_.returns;
         added.away_since = gone->second.removed_at;
         drop_gone(gone);
       }
@@ -223,6 +227,7 @@ std::optional<DeviceEvent> DeviceTable::upsert(const std::string& id, nlohmann::
   if (!doc.is_object()) doc = nlohmann::json::object();
   doc.erase(kSources);
   doc.erase(kMergedInto);
+  for (const char* event_key : {model::key::reason, model::key::arrival, model::key::away_since}) doc.erase(event_key);
   doc[model::key::id] = id;
   doc[kLastSeen] = now;
   std::set<std::string> affected = group_of(id);
@@ -433,6 +438,13 @@ std::vector<HistoryRecord> DeviceTable::history_since(std::uint64_t generation, 
     out.push_back(*found);
     out.back().id = it->second;
   }
+  return out;
+}
+
+TableCounts DeviceTable::counts() const {
+  TableCounts out = counts_;
+  out.gone = gone_.size();
+  out.history = history_size();
   return out;
 }
 

@@ -89,6 +89,14 @@ struct CameraHistory {
   std::uint64_t removed(model::RemovalReason r) const { return removals[static_cast<std::size_t>(r)]; }
 };
 
+// What the table counted since it was made, for /metrics.
+struct TableCounts {
+  std::array<std::uint64_t, model::kRemovalReasons.size()> removals{};  // by reason
+  std::uint64_t returns = 0;  // cameras added again while gone
+  std::size_t gone = 0;
+  std::size_t history = 0;  // changes kept
+};
+
 // Bounds of the history, so that cameras coming and going for months cannot grow the
 // daemon: at most `per_camera` changes a camera, `total` in all (the oldest dropped
 // first), `gone` gone entries (the oldest dropped first), each kept `gone_keep`.
@@ -192,6 +200,7 @@ class DeviceTable {
   // Drops the gone entries removed before `cutoff_iso8601` (the same form as `at`).
   void expire_gone(const std::string& cutoff_iso8601);
   std::size_t gone_size() const { return gone_.size(); }
+  TableCounts counts() const;
   std::size_t history_size() const;  // changes kept, over every camera
   const HistoryLimits& limits() const { return limits_; }
 
@@ -239,6 +248,7 @@ class DeviceTable {
     std::array<std::uint64_t, model::kRemovalReasons.size()> removals{};
   };
   HistoryLimits limits_;
+  TableCounts counts_;  // removals and returns; the sizes are filled by counts()
   std::map<std::string, Camera> cameras_;  // by entry id
   // (generation, entry id) of every change kept, oldest first: the total bound and
   // history_since() walk it. It may name a change the per-camera bound dropped already.

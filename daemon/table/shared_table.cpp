@@ -132,6 +132,11 @@ std::optional<CameraHistory> SharedTable::history(const std::string& key) const 
   return table_.history(key);
 }
 
+TableCounts SharedTable::counts() const {
+  std::lock_guard lock(mutex_);
+  return table_.counts();
+}
+
 std::vector<HistoryRecord> SharedTable::history_since(std::uint64_t generation, std::size_t max) const {
   std::lock_guard lock(mutex_);
   return table_.history_since(generation, max);

@@ -48,6 +48,7 @@ class SharedTable {
   std::optional<GoneEntry> find_gone(const std::string& key) const;
   std::optional<CameraHistory> history(const std::string& key) const;
   std::vector<HistoryRecord> history_since(std::uint64_t generation, std::size_t max) const;
+  TableCounts counts() const;
 
   // Events after `generation`, waiting up to `timeout` for the first one. Returns
   // at once when there are some, when there is a gap, or after close().

@@ -39,4 +39,30 @@ constexpr std::optional<RemovalReason> parse_removal_reason(std::string_view nam
   return std::nullopt;
 }
 
+// What the event stream adds to the document of a `removed` event (reason) and of
+// an `added` one (arrival: new or back; away-since: when a camera back was removed).
+// The table keeps sources from setting them, so an event never carries one twice.
+namespace key {
+inline constexpr const char* reason = "reason";
+inline constexpr const char* arrival = "arrival";
+inline constexpr const char* away_since = "away-since";
+// The history documents (GET /v1/devices/{id}/history, /v1/history) and a gone
+// camera's answer (410 on GET /v1/devices/{id}).
+inline constexpr const char* generation = "generation";
+inline constexpr const char* at = "at";
+inline constexpr const char* event = "event";
+inline constexpr const char* detail = "detail";
+inline constexpr const char* state = "state";
+inline constexpr const char* changes = "changes";
+inline constexpr const char* removals = "removals";
+inline constexpr const char* gone = "gone";
+inline constexpr const char* removed_at = "removed-at";
+inline constexpr const char* device = "device";
+inline constexpr const char* next = "next";
+}  // namespace key
+inline constexpr const char* kArrivalNew = "new";
+inline constexpr const char* kArrivalBack = "back";
+inline constexpr const char* kStatePresent = "present";
+inline constexpr const char* kStateGone = "gone";
+
 }  // namespace rsd::model
