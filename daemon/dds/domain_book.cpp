@@ -261,7 +261,8 @@ void DomainBook::forget_retries_if_gone(const std::string& participant_guid) {
   std::erase_if(idle_writers_, of_it);
 }
 
-void DomainBook::sweep(const MatchedWriters& still_matched, const std::string* only, Clock::time_point now) {
+void DomainBook::sweep(const MatchedWriters& still_matched, const std::string* only, Clock::time_point now,
+                       model::RemovalReason reason) {
   std::set<std::string> alive;
   for (auto it = writers_.begin(); it != writers_.end();) {
     if (!still_matched.contains(it->first)) {
@@ -279,8 +280,11 @@ void DomainBook::sweep(const MatchedWriters& still_matched, const std::string* o
   }
   for (const auto& [id, writer] : gone) {
     if (writer.empty()) {
-      remove_device(id, model::RemovalReason::writer_gone, "its writer is gone");
-    } else if (drop_announcer(id, writer, model::RemovalReason::writer_gone, "its writer " + writer + " is gone")) {
+      remove_device(id, reason, "its writer is gone");
+    } else if (drop_announcer(id, writer, reason,
+                              reason == model::RemovalReason::interface_gone
+                                  ? "not heard again after the host's network changed"
+                                  : "its writer " + writer + " is gone")) {
       // A device gone with its writer, not by 'stopping': its server may be lost.
       lost_.writer_lost(participant_of(writer), now);
     }
@@ -299,6 +303,7 @@ void DomainBook::reader_made(Clock::time_point now) {
   writers_of_.clear();
   refused_.clear();  // a refused writer may get in now, if there is room
   if (!devices_.empty()) reconcile_at_ = now + options_.reconcile_grace;
+  else reconcile_reason_.reset();  // nothing to reconcile: no later one inherits it
 }
 
 void DomainBook::participant_made() {
@@ -325,7 +330,8 @@ DomainBook::Due DomainBook::tick(Clock::time_point now, const MatchedWriters& st
   if (reconcile_due(now)) {
     reconcile_at_.reset();
     std::erase_if(refused_, [&](Handle h) { return !still_matched.contains(h); });
-    sweep(still_matched, nullptr, now);
+    sweep(still_matched, nullptr, now, reconcile_reason_.value_or(model::RemovalReason::writer_gone));
+    reconcile_reason_.reset();
   }
   // Per server, the writers that matched a while ago and sent nothing, but for
   // those already known to be idle.

@@ -114,6 +114,9 @@ class DomainBook {
   void reader_made(Clock::time_point now);
   // A new participant: what it heard about participants is forgotten too.
   void participant_made();
+  // The participant is made anew because the host's network changed: a device that
+  // does not come back by the reconciliation left with the network (interface-gone).
+  void network_changed() { reconcile_reason_ = model::RemovalReason::interface_gone; }
   void participant_alive(const std::string& guid, Clock::time_point now) { lost_.participant_alive(guid, now); }
   // A participant left or its lease expired: every writer of it is gone, so are the
   // devices it alone announced, now, whether or not its writers ever matched the
@@ -173,7 +176,8 @@ class DomainBook {
   void unindex(const std::string& writer_guid, const std::string& id);  // from devices_of_writer_
   // Forgets writers no longer matched; drops the announcements of those gone
   // (only of `only`, while reconciling).
-  void sweep(const MatchedWriters& still_matched, const std::string* only, Clock::time_point now);
+  void sweep(const MatchedWriters& still_matched, const std::string* only, Clock::time_point now,
+             model::RemovalReason reason = model::RemovalReason::writer_gone);
   // Drops the devices `writer_guid` announced (a writer gone); a device that left
   // with it may mean its server is lost.
   void drop_writer_devices(const std::string& writer_guid, Clock::time_point now);
@@ -200,6 +204,7 @@ class DomainBook {
   std::map<std::string, std::set<std::string>> devices_of_writer_;
   std::map<std::string, std::size_t> per_participant_;  // devices announced, by participant GUID
   std::optional<Clock::time_point> reconcile_at_;
+  std::optional<model::RemovalReason> reconcile_reason_;  // why the next reconciliation removes
   LostServers lost_;
   std::uint64_t accepted_ = 0, stopping_ = 0;
   std::map<std::string, std::uint64_t> rejected_;

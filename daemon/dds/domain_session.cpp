@@ -184,6 +184,7 @@ void DomainSession::follow_network(std::vector<net::NetInterface> chosen) {
     std::lock_guard lock(mutex_);  // status() reads them on API threads
     options_.interfaces = std::move(chosen);
     ++network_changes_;
+    book_.network_changed();
     network_changed_at_ = SharedTable::now_iso8601();
   }
   rebuild();

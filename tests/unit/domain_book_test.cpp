@@ -284,6 +284,25 @@ TEST_F(Book, ARemovalLineNamesTheServerNotOnlyGuids) {
   EXPECT_NE(gone->detail.find("server 'server-1'"), std::string::npos) << gone->detail;
 }
 
+TEST_F(Book, ADeviceNotBackAfterANetworkChangeLeftWithTheInterface) {
+  book.writer_matched(1, writer(1, 1), t0);
+  book.writer_matched(2, writer(2, 1), t0);
+  book.sample(1, info("100"));
+  book.sample(2, info("101"));
+  book.network_changed();
+  book.participant_made();
+  book.reader_made(t0 + 1s);
+  book.writer_matched(12, writer(2, 1), t0 + 1100ms);  // only server 2 is heard on the new network
+  book.tick(t0 + 3500ms, {12});                       // past the reconcile grace
+  ASSERT_TRUE(table.find_gone(id("100")));
+  EXPECT_EQ(table.find_gone(id("100"))->reason, rsd::model::RemovalReason::interface_gone);
+  EXPECT_TRUE(table.find(id("101")));
+  // A later reconciliation, not after a network change, says writer-gone again.
+  book.reader_made(t0 + 10s);
+  book.tick(t0 + 13s, {});
+  EXPECT_EQ(table.find_gone(id("101"))->reason, rsd::model::RemovalReason::writer_gone);
+}
+
 TEST_F(Book, EachWayOfLeavingHasItsReason) {
   using rsd::model::RemovalReason;
   book.writer_matched(1, writer(1, 1), t0);
