@@ -159,6 +159,7 @@ struct MetricsInput {
   // The table's: cameras removed, by reason; added again while gone; gone kept; changes kept.
   std::array<std::uint64_t, model::kRemovalReasons.size()> removals{};
   std::uint64_t returns = 0;
+  std::uint64_t flaps = 0;
   std::size_t gone = 0;
   std::size_t history = 0;
 };

@@ -277,6 +277,7 @@ void Handlers::handle_metrics(const ApiRequest& req, ApiResponse& res) {
   const TableCounts counts = table.counts();
   in.removals = counts.removals;
   in.returns = counts.returns;
+  in.flaps = counts.flaps;
   in.gone = counts.gone;
   in.history = counts.history;
   in.events_sent = events_sent.load();

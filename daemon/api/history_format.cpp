@@ -33,6 +33,7 @@ nlohmann::json to_json(const HistoryRecord& c) {
                         {model::key::event, to_string(c.type)}};
   if (c.reason) out[model::key::reason] = model::to_string(*c.reason);
   if (c.type == EventType::added) out[model::key::arrival] = c.back ? model::kArrivalBack : model::kArrivalNew;
+  if (c.flap) out[model::key::flap] = true;
   if (!c.detail.empty()) out[model::key::detail] = c.detail;
   return out;
 }
@@ -45,7 +46,8 @@ nlohmann::json history_json(const CameraHistory& h, const std::optional<GoneEntr
   nlohmann::json out = {{model::key::id, h.id},
                         {model::key::state, gone ? model::kStateGone : model::kStatePresent},
                         {model::key::changes, std::move(changes)},
-                        {model::key::removals, std::move(removals)}};
+                        {model::key::removals, std::move(removals)},
+                        {model::key::flaps, h.flaps}};
   if (gone) out[model::key::gone] = gone_json(*gone);
   return out;
 }

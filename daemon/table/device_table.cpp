@@ -1,6 +1,8 @@
 #include "table/device_table.hpp"
 
 #include <algorithm>
+#include <cstdio>
+#include <ctime>
 #include <utility>
 #include <iterator>
 #include <limits>
@@ -38,6 +40,19 @@ bool same_but_timestamps(const nlohmann::json& a, const nlohmann::json& b) {
     d->erase(DeviceTable::kLastSeen);
   }
   return x == y;
+}
+
+// Milliseconds since the epoch of a time in the form of first-seen/last-seen; nothing
+// for another form (the unit tests' made-up times).
+std::optional<std::int64_t> epoch_ms(const std::string& t) {
+  std::tm tm{};
+  int ms = 0;
+  if (std::sscanf(t.c_str(), "%4d-%2d-%2dT%2d:%2d:%2d.%3dZ", &tm.tm_year, &tm.tm_mon, &tm.tm_mday, &tm.tm_hour,
+                  &tm.tm_min, &tm.tm_sec, &ms) != 7)
+    return std::nullopt;
+  tm.tm_year -= 1900;
+  tm.tm_mon -= 1;
+  return static_cast<std::int64_t>(timegm(&tm)) * 1000 + ms;
 }
 
 // Sources in the order in which they name a merged entry: the model's (dds, usb), then
@@ -184,7 +199,7 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
     events.push_back(record(std::move(removed)));
     if (!events.back().reason) continue;
     const DeviceEvent& ev = events.back();
-    note(entry_id, HistoryRecord{ev.generation, now, {}, EventType::removed, ev.reason, false, removal->detail});
+    note(entry_id, HistoryRecord{ev.generation, now, {}, EventType::removed, ev.reason, false, false, removal->detail});
     gone_[entry_id] = GoneEntry{ev.entry, *ev.reason, now, removal->detail, ev.generation};
     gone_order_[ev.generation] = entry_id;
     while (gone_.size() > limits_.gone) drop_gone(gone_.find(gone_order_.begin()->second));
@@ -197,15 +212,23 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
       DeviceEvent added;
       added.type = EventType::added;
       added.entry = devices_.emplace(entry_id, make_entry(doc)).first->second;
+      bool flap = false;
       if (const auto gone = gone_.find(entry_id); gone != gone_.end()) {
         added.back = true;
         ++counts_.returns;
         added.away_since = gone->second.removed_at;
+        const auto from = epoch_ms(gone->second.removed_at), to = epoch_ms(now);
+        flap = gone->second.reason == model::RemovalReason::lease_expired && from && to &&
+               *to - *from <= std::chrono::milliseconds(limits_.flap_window).count();
         drop_gone(gone);
       }
       events.push_back(record(std::move(added)));
+      if (flap) {
+        ++counts_.flaps;
+        ++cameras_[entry_id].flaps;
+      }
       note(entry_id, HistoryRecord{events.back().generation, now, {}, EventType::added, std::nullopt,
-                                   events.back().back, {}});
+                                   events.back().back, flap, {}});
       continue;
     }
     const bool changed = !same_but_timestamps(model::to_json(it->second->device), doc);
@@ -416,6 +439,7 @@ std::optional<CameraHistory> DeviceTable::history(const std::string& key) const 
   out.id = id;
   if (const auto c = cameras_.find(id); c != cameras_.end()) {
     out.removals = c->second.removals;
+    out.flaps = c->second.flaps;
     for (HistoryRecord change : c->second.changes) {
       change.id = id;
       out.changes.push_back(std::move(change));

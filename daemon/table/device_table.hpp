@@ -67,6 +67,7 @@ struct HistoryRecord {
   EventType type = EventType::added;           // added or removed
   std::optional<model::RemovalReason> reason;  // removed (not by a merge)
   bool back = false;                           // added after being gone
+  bool flap = false;                           // added: back within the flap window of a lease-expired
   std::string detail;                          // removed: the source's words on why
 };
 
@@ -86,6 +87,7 @@ struct CameraHistory {
   std::string id;
   std::vector<HistoryRecord> changes;
   std::array<std::uint64_t, model::kRemovalReasons.size()> removals{};
+  std::uint64_t flaps = 0;  // lost by lease and back within HistoryLimits::flap_window
   std::uint64_t removed(model::RemovalReason r) const { return removals[static_cast<std::size_t>(r)]; }
 };
 
@@ -93,6 +95,7 @@ struct CameraHistory {
 struct TableCounts {
   std::array<std::uint64_t, model::kRemovalReasons.size()> removals{};  // by reason
   std::uint64_t returns = 0;  // cameras added again while gone
+  std::uint64_t flaps = 0;    // of those, lost by lease and back within the flap window
   std::size_t gone = 0;
   std::size_t history = 0;  // changes kept
 };
@@ -105,6 +108,9 @@ struct HistoryLimits {
   std::size_t total = 16384;
   std::size_t gone = 1024;
   std::chrono::seconds gone_keep{24 * 3600};  // SharedTable's clock applies it
+  // A camera lost by lease and back within this is a flap: a lossy link or a server
+  // that stalls, not a camera that went away.
+  std::chrono::seconds flap_window{60};
 };
 
 // What events_since() found in the change log.
@@ -246,6 +252,7 @@ class DeviceTable {
   struct Camera {
     std::deque<HistoryRecord> changes;  // ids left empty: the key says it
     std::array<std::uint64_t, model::kRemovalReasons.size()> removals{};
+    std::uint64_t flaps = 0;
   };
   HistoryLimits limits_;
   TableCounts counts_;  // removals and returns; the sizes are filled by counts()

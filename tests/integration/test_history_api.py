@@ -41,6 +41,7 @@ def test_metrics_count_removals_by_every_reason_from_zero(harness):
     for reason in REASONS:
         assert metric(m, "rsd_device_removals_total", reason=reason) == 0, reason
     assert metric(m, "rsd_device_returns_total") == 0
+    assert metric(m, "rsd_device_flaps_total") == 0
     did, doc = dev(1)
     h.upsert(did, doc)
     h.command(f"remove {did} unplugged")
@@ -90,6 +91,7 @@ def test_device_history_and_table_history(harness):
     assert [(c["event"], c.get("reason"), c.get("arrival")) for c in ha["changes"]] == [
         ("added", None, "new"), ("removed", "lease-expired", None), ("added", None, "back")]
     assert ha["removals"] == {r: (1 if r == "lease-expired" else 0) for r in REASONS}
+    assert ha["flaps"] == 1 and ha["changes"][2]["flap"] is True  # lost by lease, back at once
     hb = get_json(h.tcp, f"/v1/devices/{bdoc['serial']}/history")  # gone, found by serial
     assert hb["id"] == b and hb["state"] == "gone" and hb["gone"]["reason"] == "writer-gone"
     status, _, _ = request(h.tcp, "/v1/devices/never-seen/history")

@@ -186,3 +186,23 @@ TEST(TableHistory, GoneEntriesExpire) {
   EXPECT_TRUE(t.find_gone("b"));
   EXPECT_EQ(t.gone_size(), 1u);
 }
+
+TEST(TableHistory, LostByLeaseAndBackWithinAMinuteIsAFlap) {
+  DeviceTable t;
+  t.upsert("a", camera("1"), "2026-01-01T00:00:00.000Z");
+  t.remove("a", RemovalReason::lease_expired, "2026-01-01T00:00:10.000Z");
+  t.upsert("a", camera("1"), "2026-01-01T00:00:13.500Z");  // back 3.5 s later: a flap
+  t.remove("a", RemovalReason::lease_expired, "2026-01-01T00:01:00.000Z");
+  t.upsert("a", camera("1"), "2026-01-01T00:02:00.001Z");  // away over a minute: not one
+  t.remove("a", RemovalReason::stopping, "2026-01-01T00:03:00.000Z");
+  t.upsert("a", camera("1"), "2026-01-01T00:03:01.000Z");  // said it was stopping: not one
+  const auto h = t.history("a");
+  ASSERT_TRUE(h);
+  EXPECT_EQ(h->flaps, 1u);
+  EXPECT_EQ(t.counts().flaps, 1u);
+  EXPECT_EQ(t.counts().returns, 3u);
+  ASSERT_EQ(h->changes.size(), 7u);
+  EXPECT_TRUE(h->changes[2].flap);
+  EXPECT_FALSE(h->changes[4].flap);
+  EXPECT_FALSE(h->changes[6].flap);
+}

@@ -279,7 +279,7 @@ def test_a_camera_that_left_is_gone_not_never_seen_and_has_its_history(daemon_fa
         h = c.device_history(dev.id)
         assert isinstance(h, rsdiscovery.DeviceHistory) and h.state == "gone" and h.gone is not None
         assert [(x.event, x.reason) for x in h.changes] == [("added", None), ("removed", "stopping")]
-        assert h.removals["stopping"] == 1 and h.removals["lease-expired"] == 0
+        assert h.removals["stopping"] == 1 and h.removals["lease-expired"] == 0 and h.flaps == 0
         whole = c.history()
         assert [x.id for x in whole.changes] == [dev.id, dev.id] and whole.next == whole.generation
         assert c.history(since=whole.next).changes == ()

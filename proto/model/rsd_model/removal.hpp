@@ -59,6 +59,8 @@ inline constexpr const char* gone = "gone";
 inline constexpr const char* removed_at = "removed-at";
 inline constexpr const char* device = "device";
 inline constexpr const char* next = "next";
+inline constexpr const char* flap = "flap";
+inline constexpr const char* flaps = "flaps";
 }  // namespace key
 inline constexpr const char* kArrivalNew = "new";
 inline constexpr const char* kArrivalBack = "back";

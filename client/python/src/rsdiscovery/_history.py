@@ -46,6 +46,7 @@ class HistoryChange:
     event: str
     reason: Optional[str]
     arrival: Optional[str]
+    flap: bool
     detail: Optional[str]
     raw: Mapping[str, Any] = field(repr=False)
 
@@ -54,7 +55,7 @@ class HistoryChange:
         r = _Read(doc, "a history change")
         return HistoryChange(id=r.req("id", str), generation=r.req("generation", int), at=r.req("at", str),
                              event=r.req("event", str), reason=r.opt("reason", str), arrival=r.opt("arrival", str),
-                             detail=r.opt("detail", str), raw=r.doc)
+                             flap=r.get("flap", bool, False), detail=r.opt("detail", str), raw=r.doc)
 
 
 def _changes(r: _Read) -> Tuple[HistoryChange, ...]:
@@ -65,12 +66,14 @@ def _changes(r: _Read) -> Tuple[HistoryChange, ...]:
 @dataclass(frozen=True)
 class DeviceHistory:
     """One camera's history: ``state`` ``present`` or ``gone`` (then ``gone`` is set), its
-    latest changes oldest first, and ``removals``: times removed, by reason."""
+    latest changes oldest first, ``removals``: times removed, by reason, and ``flaps``: times
+    lost by lease and back within a minute."""
 
     id: str
     state: str
     changes: Tuple[HistoryChange, ...]
     removals: Mapping[str, int]
+    flaps: int
     gone: Optional[GoneDevice]
     raw: Mapping[str, Any] = field(repr=False)
 
@@ -79,7 +82,7 @@ class DeviceHistory:
         r = _Read(doc, "a device's history")
         gone = r.opt("gone", dict)
         return DeviceHistory(id=r.req("id", str), state=r.req("state", str), changes=_changes(r),
-                             removals=r.counts("removals"), gone=GoneDevice.from_json(gone) if gone else None,
+                             removals=r.counts("removals"), flaps=r.get("flaps", int, 0), gone=GoneDevice.from_json(gone) if gone else None,
                              raw=r.doc)
 
 
