@@ -34,9 +34,15 @@ void check_history(Report& r, const std::string& history_json) {
             id + " was lost by its lease and back within a minute " + std::to_string(s.flaps) + " time" +
                 (s.flaps == 1 ? "" : "s") + (s.server.empty() ? "" : " (last: " + s.server + ")") +
                 ": the link to its host loses packets, or its server stalls");
+    // A camera whose server said it was stopping or closed it (its writer went with the
+    // server still there, as a server that exits does), that was unplugged, or whose
+    // domain the user dropped, left on purpose: worth knowing, no fault. Lost by its
+    // lease, with the network, or refused: that explains a missing camera.
+    const std::string reason = s.last.value("reason", "?");
+    const bool meant = reason != "lease-expired" && reason != "interface-gone" && reason != "refused";
     if (s.last.value("event", "") == "removed" && gone++ < kMostNamed)
-      r.add(Verdict::warn, "gone",
-            id + " left at " + s.last.value("at", "") + ": " + s.last.value("reason", "?") +
+      r.add(meant ? Verdict::info : Verdict::warn, "gone",
+            id + " left at " + s.last.value("at", "") + ": " + reason +
                 (s.server.empty() ? "" : " (" + s.server + ")") + " ('rs-discover history " + id + "')");
   }
   if (gone > kMostNamed) r.add(Verdict::info, "gone", std::to_string(gone - kMostNamed) + " more cameras left");

@@ -2,11 +2,15 @@
 Fast DDS) is told by its own reason: in the `removed` event, the camera's history,
 its gone answer (410) and /metrics. Times from the event to the verdict are printed
 for the report."""
+import json
+import os
+import subprocess
 import time
 import urllib.parse
 
 from conftest import EventStream, device_info, wait_for
 
+CLI = os.path.join(os.environ.get("RSD_BUILD_DIR", ""), "client", "rs-discover")
 LEASE_S = 3.0  # realdds participants announce a 3 s lease
 LEASE_MARGIN_S = 4.0  # re-announce period, Cyclone's lease check and a loaded machine
 
@@ -69,6 +73,13 @@ def test_stopping_writer_gone_and_kill_each_have_their_reason(free_domain, daemo
         assert f'rsd_device_removals_total{{reason="{reason}"}} 1' in m, m
     log = d.log()
     assert "removed (lease-expired)" in log and "removed (stopping)" in log and "removed (writer-gone)" in log
+
+    # The doctor names the camera lost by its lease as a warn (it explains a missing
+    # camera), those its server closed ('stopping', its writer deleted) as info.
+    r = subprocess.run([CLI, "--endpoint", "unix:" + d.socket, "doctor", "--listen", "0", "--json"],
+                       capture_output=True, text=True, timeout=60)
+    gone = {f["text"].split()[0]: f["verdict"] for f in json.loads(r.stdout)["findings"] if f["topic"] == "gone"}
+    assert gone == {dds_id(dom, a): "info", dds_id(dom, b): "info", dds_id(dom, c): "warn"}, gone
 
     # The killed server back: `added` says it is back, after how long away.
     again = realdds_server(dom, [c], name="bench-c")
