@@ -47,6 +47,10 @@ int run(const ParsedArgs& args) {
   check_devices(report, devices, health);
   check_sharing(report, devices, participants, domains);
   check_http(report, health);
+  try {
+    check_history(report, client.history(0));
+  } catch (const rsdiscovery::Error&) {  // a daemon without /v1/history: nothing to say
+  }
   report.add(Verdict::info, "cameras", std::to_string(devices.size()) + " camera" + (devices.size() == 1 ? "" : "s") +
                                            " listed ('rs-discover list')");
   return report.print(args.has("json"));

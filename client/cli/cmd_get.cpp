@@ -27,7 +27,16 @@ int run(const ParsedArgs& args) {
   std::vector<rsdiscovery::Device> found;
   int status = kOk;
   for (const auto& key : args.positional) {
-    auto device = client.find_device(key);
+    std::optional<rsdiscovery::Device> device;
+    try {
+      device = client.find_device(key);
+    } catch (const rsdiscovery::Error& e) {
+      if (e.http_status() != 410) throw;
+      // Gone is not never seen: the daemon's words say why and since when.
+      std::fprintf(stderr, "rs-discover: %s ('rs-discover history %s' tells more)\n", e.what(), key.c_str());
+      status = kNotFound;
+      continue;
+    }
     if (!device) {
       report_no_device(key);
       status = kNotFound;

@@ -199,5 +199,6 @@ extern const Command kDomainsCommand;
 extern const Command kParticipantsCommand;
 extern const Command kDoctorCommand;
 extern const Command kHealthCommand;
+extern const Command kHistoryCommand;
 
 }  // namespace rsdiscover

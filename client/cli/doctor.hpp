@@ -69,6 +69,8 @@ void check_networks(Report& r, const std::vector<rsdiscovery::DomainStatus>& dom
                     const std::optional<spdp::Heard>& heard);
 void check_devices(Report& r, const std::vector<rsdiscovery::Device>& devices, const rsdiscovery::Health& health);
 void check_http(Report& r, const rsdiscovery::Health& health);
+// Cameras that left and cameras that flap, from GET /v1/history (doctor_history.cpp).
+void check_history(Report& r, const std::string& history_json);
 // Which hosts share USB cameras with the daemon, and which daemons it hears share none
 // (doctor_sharing.cpp).
 void check_sharing(Report& r, const std::vector<rsdiscovery::Device>& devices,

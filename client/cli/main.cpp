@@ -12,7 +12,8 @@ namespace {
 using namespace rsdiscover;
 
 const Command* const kCommands[] = {&kListCommand, &kGetCommand, &kDescribeCommand, &kWatchCommand,
-                                    &kDomainsCommand, &kParticipantsCommand, &kDoctorCommand, &kHealthCommand};
+                                    &kDomainsCommand, &kParticipantsCommand, &kDoctorCommand, &kHealthCommand,
+                                    &kHistoryCommand};
 
 void usage(std::FILE* out) {
   std::fputs(

@@ -146,6 +146,13 @@ std::optional<Device> Client::find_device(const std::string& id) {
         if (other.is_string()) message += "\n  " + other.get<std::string>();
     throw Error(ErrorCode::not_found, message, 409);
   }
+  if (reply.status == 410) {  // it was here and left: say why, not "no such device"
+    auto body = json::parse(reply.body, nullptr, false);
+    std::string message = "device '" + id + "' is gone";
+    if (body.is_object() && body.contains("error") && body["error"].is_string())
+      message = body["error"].get<std::string>();
+    throw Error(ErrorCode::not_found, message, 410);
+  }
   if (reply.status != 200) {
     std::lock_guard lock(impl_->mutex);
     impl_->transport.get_json(path);  // turns the status into its Error
@@ -229,6 +236,26 @@ std::vector<Participant> Client::participants(std::optional<int> domain) {
   std::vector<Participant> out;
   for (const auto& p : *list) out.push_back(detail::participant_from_json(p));
   return out;
+}
+
+std::string Client::device_history(const std::string& id) {
+  const std::string path = "/v1/devices/" + detail::percent_encode(id) + "/history";
+  std::lock_guard lock(impl_->mutex);
+  auto reply = impl_->transport.get(path);
+  if (reply.status == 404)
+    throw Error(ErrorCode::not_found, "no device '" + id + "' was ever seen by rs-discoveryd (" +
+                                          impl_->endpoint.to_string() + ")",
+                404);
+  if (reply.status != 200) impl_->transport.get_json(path);  // throws its Error
+  return reply.body;
+}
+
+std::string Client::history(std::uint64_t since) {
+  const std::string path = "/v1/history?since=" + std::to_string(since);
+  std::lock_guard lock(impl_->mutex);
+  auto reply = impl_->transport.get(path);
+  if (reply.status != 200) impl_->transport.get_json(path);  // throws its Error
+  return reply.body;
 }
 
 Health Client::health() { return detail::health_from_json(impl_->get_json("/healthz")); }

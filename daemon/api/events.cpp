@@ -1,6 +1,7 @@
 // The event stream, GET /v1/events: one TableFeed per client, which the server loop
 // polls on every table change and on keep-alive deadlines.
 #include "api/handlers.hpp"
+#include "api/history_format.hpp"
 
 #include <algorithm>
 
@@ -39,7 +40,8 @@ class TableFeed final : public EventFeed {
       std::uint64_t n = 0;
       for (const auto& e : got.events) {
         cursor = e.generation;
-        // A filter reads the entry's typed fields; every stream sends the logged bytes.
+        // A filter reads the entry's typed fields; every stream sends the logged bytes
+        // (with the reason of a removal, or the arrival of an addition).
         // A change that takes a device out of the filter (a renumbered server no
         // longer at ?address=) is its removal for this client, one that brings it in
         // its arrival: else a filtered watcher kept a device it would never list.
@@ -50,7 +52,7 @@ class TableFeed final : public EventFeed {
           if (!before && !after) continue;
           if (before != after) type = after ? EventType::added : EventType::removed;
         }
-        out += sse_message(to_string(type), e.generation, e.entry->text);
+        out += sse_message(to_string(type), e.generation, event_document(e, type));
         ++n;
       }
       sent_ += n;

@@ -367,6 +367,16 @@ std::string render_metrics(const MetricsInput& in) {
     w.sample("rsd_usb_devices", {}, in.usb->devices);
   }
 
+  w.family("rsd_device_removals_total", "counter", "Cameras removed from the table, by reason (every one from 0).");
+  for (const auto r : model::kRemovalReasons)
+    w.sample("rsd_device_removals_total", {{"reason", std::string(model::to_string(r))}},
+             in.removals[static_cast<std::size_t>(r)]);
+  w.single("rsd_device_returns_total", "counter", "Cameras listed again after they were removed.", in.returns);
+  w.single("rsd_device_flaps_total", "counter",
+           "Cameras lost by lease and listed again within a minute (a lossy link, a stalling server).", in.flaps);
+  w.single("rsd_gone_devices", "gauge", "Cameras that left and are still findable as gone.", in.gone);
+  w.single("rsd_history_changes", "gauge", "Presence changes the history keeps, every camera.", in.history);
+
   w.single("rsd_events_sent_total", "counter", "Device events written to SSE clients.", in.events_sent);
   w.single("rsd_event_streams", "gauge", "Open SSE streams.", in.event_streams);
   w.single("rsd_event_streams_rejected_total", "counter",

@@ -8,6 +8,9 @@
 
 #include "rsd_model/device.hpp"
 #include "rsd_model/participant.hpp"
+#include "rsd_model/removal.hpp"
+
+#include <array>
 
 #include <nlohmann/json.hpp>
 
@@ -133,7 +136,7 @@ model::HttpHealth http_health(const std::string& config_host, int config_port, b
 // start). 408, 413, 414, 431 and the 503 at the connection limit are the
 // connection loop's, counted apart (rsd_api_requests_rejected_total,
 // rsd_api_timeouts_total, rsd_api_connections_refused_total).
-inline constexpr int kRouteStatuses[] = {200, 304, 400, 404, 405, 409, 421, 500, 503};
+inline constexpr int kRouteStatuses[] = {200, 304, 400, 404, 405, 409, 410, 421, 500, 503};
 
 // Everything /metrics reports, gathered by the server at request time.
 struct MetricsInput {
@@ -153,6 +156,12 @@ struct MetricsInput {
   std::uint64_t rejected = 0;
   std::map<int, std::uint64_t> requests_by_status;
   std::optional<UsbStatus> usb;  // nothing when USB is turned off
+  // The table's: cameras removed, by reason; added again while gone; gone kept; changes kept.
+  std::array<std::uint64_t, model::kRemovalReasons.size()> removals{};
+  std::uint64_t returns = 0;
+  std::uint64_t flaps = 0;
+  std::size_t gone = 0;
+  std::size_t history = 0;
 };
 
 // Prometheus text exposition format 0.0.4.

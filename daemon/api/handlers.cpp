@@ -4,6 +4,7 @@
 #include "api/handlers.hpp"
 
 #include "api/embedded.hpp"
+#include "api/history_format.hpp"
 #include "api/process_stats.hpp"
 #include "rsd_model/description.hpp"
 
@@ -163,6 +164,12 @@ void Handlers::handle_device(const ApiRequest& req, ApiResponse& res) {
                                 {"status", 409},
                                 {"ids", std::move(ids)}});
   }
+  // A camera that was here and left is not one never seen: 410, with when and why.
+  if (const auto gone = table.find_gone(id))
+    return send_json(res, 410, {{"error", "device '" + id + "' is gone (" + std::string(model::to_string(gone->reason)) +
+                                              ", " + gone->removed_at + ")"},
+                                {"status", 410},
+                                {model::key::gone, gone_json(*gone)}});
   // A 404 from an incomplete table may turn into a 200 in a moment: say which it
   // is, so a client can wait instead of reporting the camera absent.
   send_json(res, 404, {{"error", no_device(id) +
@@ -273,6 +280,12 @@ void Handlers::handle_metrics(const ApiRequest& req, ApiResponse& res) {
   in.devices_per_domain = count_by_domain(snap.devices);
   in.devices_total = snap.devices.size();
   in.generation = snap.generation;
+  const TableCounts counts = table.counts();
+  in.removals = counts.removals;
+  in.returns = counts.returns;
+  in.flaps = counts.flaps;
+  in.gone = counts.gone;
+  in.history = counts.history;
   in.events_sent = events_sent.load();
   in.event_streams = streams_open.load();
   in.event_streams_rejected = streams_rejected.load();

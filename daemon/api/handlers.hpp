@@ -38,6 +38,8 @@ class Handlers {
   void handle_spec(const ApiRequest& req, ApiResponse& res);
   void handle_metrics(const ApiRequest& req, ApiResponse& res);
   void handle_events(const ApiRequest& req, ApiResponse& res);  // events.cpp
+  void handle_device_history(const ApiRequest& req, ApiResponse& res);  // history_handlers.cpp
+  void handle_history(const ApiRequest& req, ApiResponse& res);         // history_handlers.cpp
 
   SharedTable& table;
   const StatusSource& status;

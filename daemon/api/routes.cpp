@@ -12,10 +12,12 @@ namespace rsd::api {
 namespace {
 
 // The paths of proto/openapi.yaml, and the page and the spec themselves.
-const std::array<Route, 10> kRoutes = {{
+const std::array<Route, 12> kRoutes = {{
     {"GET", "/v1/devices", &Handlers::handle_devices},
     {"GET", "/v1/devices/{id}", &Handlers::handle_device},
     {"GET", "/v1/devices/{id}/description", &Handlers::handle_description, true},
+    {"GET", "/v1/devices/{id}/history", &Handlers::handle_device_history},
+    {"GET", "/v1/history", &Handlers::handle_history},
     {"GET", "/v1/events", &Handlers::handle_events},
     {"GET", "/v1/domains", &Handlers::handle_domains},
     {"GET", "/v1/participants", &Handlers::handle_participants},

@@ -10,6 +10,7 @@
 #include "dds/lost_servers.hpp"
 #include "dds/participant_book.hpp"
 #include "rsd_model/device.hpp"
+#include "rsd_model/removal.hpp"
 #include "table/shared_table.hpp"
 
 #include <nlohmann/json.hpp>
@@ -113,6 +114,9 @@ class DomainBook {
   void reader_made(Clock::time_point now);
   // A new participant: what it heard about participants is forgotten too.
   void participant_made();
+  // The participant is made anew because the host's network changed: a device that
+  // does not come back by the reconciliation left with the network (interface-gone).
+  void network_changed() { reconcile_reason_ = model::RemovalReason::interface_gone; }
   void participant_alive(const std::string& guid, Clock::time_point now) { lost_.participant_alive(guid, now); }
   // A participant left or its lease expired: every writer of it is gone, so are the
   // devices it alone announced, now, whether or not its writers ever matched the
@@ -131,7 +135,7 @@ class DomainBook {
   Due tick(Clock::time_point now, const MatchedWriters& still_matched);
 
   // Removes this domain's devices from the table (leaving the domain for good).
-  void forget_devices();
+  void forget_devices(model::RemovalReason reason);
   // The device with this topic-root as last announced (with its server), if any.
   std::optional<nlohmann::json> announcement(const std::string& topic_root) const;
   // topic-root -> the device as last announced, for every device.
@@ -166,12 +170,14 @@ class DomainBook {
   void stopping(const std::string& topic_root, const Writer* writer);
   // Drops one announcer of `id`; the device leaves the table with its last one,
   // else shows the latest remaining announcer. Returns whether it left.
-  bool drop_announcer(const std::string& id, const std::string& writer_guid, const std::string& why);
-  void remove_device(const std::string& id, const std::string& why);
+  bool drop_announcer(const std::string& id, const std::string& writer_guid, model::RemovalReason reason,
+                      const std::string& why);
+  void remove_device(const std::string& id, model::RemovalReason reason, const std::string& why);
   void unindex(const std::string& writer_guid, const std::string& id);  // from devices_of_writer_
   // Forgets writers no longer matched; drops the announcements of those gone
   // (only of `only`, while reconciling).
-  void sweep(const MatchedWriters& still_matched, const std::string* only, Clock::time_point now);
+  void sweep(const MatchedWriters& still_matched, const std::string* only, Clock::time_point now,
+             model::RemovalReason reason = model::RemovalReason::writer_gone);
   // Drops the devices `writer_guid` announced (a writer gone); a device that left
   // with it may mean its server is lost.
   void drop_writer_devices(const std::string& writer_guid, Clock::time_point now);
@@ -198,6 +204,7 @@ class DomainBook {
   std::map<std::string, std::set<std::string>> devices_of_writer_;
   std::map<std::string, std::size_t> per_participant_;  // devices announced, by participant GUID
   std::optional<Clock::time_point> reconcile_at_;
+  std::optional<model::RemovalReason> reconcile_reason_;  // why the next reconciliation removes
   LostServers lost_;
   std::uint64_t accepted_ = 0, stopping_ = 0;
   std::map<std::string, std::uint64_t> rejected_;

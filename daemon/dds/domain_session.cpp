@@ -184,17 +184,18 @@ void DomainSession::follow_network(std::vector<net::NetInterface> chosen) {
     std::lock_guard lock(mutex_);  // status() reads them on API threads
     options_.interfaces = std::move(chosen);
     ++network_changes_;
+    book_.network_changed();
     network_changed_at_ = SharedTable::now_iso8601();
   }
   rebuild();
 }
 
-void DomainSession::forget_devices() {
+void DomainSession::forget_devices(model::RemovalReason reason) {
   {
     std::lock_guard lock(mutex_);
-    book_.forget_devices();
+    book_.forget_devices(reason);
   }
-  share_.forget_devices();
+  share_.forget_devices(reason);
 }
 
 void DomainSession::share_usb(const std::map<std::string, nlohmann::json>& cameras) {

@@ -106,6 +106,9 @@ def test_live_table_details_description_and_network(daemon, realdds_server, free
     took = wait_rows(browser, lambda r: "Intel RealSense D455 web" not in r, 5, "the camera gone from the page")
     assert took <= 1.0, f"the page dropped the camera {took:.2f} s after the daemon did"
     print(f"page: camera gone {took * 1000:.0f} ms after the daemon dropped it")
+    # ... and listed as left, with why.
+    wait_for(lambda: "stopping" in browser.find_element(By.ID, "gone-list").text, 5, what="the camera listed as left")
+    assert f"dds-{free_domain}-" + camera["topic-root"].replace("/", ".") in browser.find_element(By.ID, "gone-list").text
     assert "1 camera" in browser.find_element(By.ID, "health").text or "(1)" in browser.find_element(By.ID, "count").text
 
 

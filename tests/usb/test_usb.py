@@ -188,6 +188,29 @@ def test_d435_hotplugged_on_usb2_is_warned_about_then_unplugged(bed, usb_daemon)
     print(f"\nhotplug -> added event {added_ms:.1f} ms, unplug -> removed event {removed_ms:.1f} ms")
 
 
+def test_unplugged_camera_is_gone_with_its_reason_and_back_on_replug(bed, usb_daemon):
+    bed.plug("root-hubs")
+    d, _ = usb_daemon()
+    events = TimedEvents(d)
+    path = bed.plug("d435-usb2")
+    assert events.expect("added", D435_ID)["json"]["arrival"] == "new"
+    t0 = time.monotonic()
+    bed.unplug(path)
+    ev = events.expect("removed", D435_ID)
+    print(f"\nunplug -> removed(unplugged) {(ev['t'] - t0) * 1000:.1f} ms")
+    assert ev["json"]["reason"] == "unplugged"
+    assert "usb: " + D435_ID + " left (unplugged)" in d.log()
+    status, _, body = d.request("/v1/devices/" + D435_ID)
+    assert status == 410 and json.loads(body)["gone"]["reason"] == "unplugged"
+    bed.plug("d435-usb2")
+    back = events.expect("added", D435_ID)["json"]
+    assert back["arrival"] == "back" and back["away-since"] >= ev["json"]["last-seen"]
+    h = d.get_json("/v1/devices/" + D435_ID + "/history")
+    assert h["state"] == "present" and h["removals"]["unplugged"] == 1
+    assert [(c["event"], c.get("reason"), c.get("arrival")) for c in h["changes"]] == [
+        ("added", None, "new"), ("removed", "unplugged", None), ("added", None, "back")]
+
+
 def test_recovery_device(bed, usb_daemon):
     bed.plug("root-hubs")
     d, _ = usb_daemon()

@@ -470,7 +470,9 @@ class RSDISCOVERY_API Client {
   // Error(not_found) when absent; both throw Error(not_found) with http_status() 409
   // when a serial or topic-root names several devices.
   Device get_device(const std::string& id);
-  std::optional<Device> find_device(const std::string& id);  // nothing when absent
+  // Nothing when absent; an Error not_found with http_status() 410 for a camera that
+  // was here and left (its message says why and when: see device_history()).
+  std::optional<Device> find_device(const std::string& id);
   // Camera Discovery of a network camera (id, serial or topic-root): its streams with
   // their profiles and options, device options, extrinsics, asked of its realdds
   // server by the daemon without opening the camera. The first time for a camera it
@@ -488,6 +490,12 @@ class RSDISCOVERY_API Client {
   std::vector<Participant> participants(std::optional<int> domain = std::nullopt);
   Health health();
   std::string metrics();  // Prometheus text
+  // A camera's comings and goings (GET /v1/devices/{id}/history: present or gone, its
+  // changes, its removals by reason) as the daemon's JSON text; an Error not_found
+  // (http_status() 404) for a camera never seen.
+  std::string device_history(const std::string& id);
+  // Every camera's changes after generation `since` (GET /v1/history), as JSON text.
+  std::string history(std::uint64_t since = 0);
 
   // Waits until a device satisfying `predicate` is present (it may be already) and
   // returns it; nothing when `timeout` passes first. Like list(), it looks at the

@@ -259,3 +259,29 @@ def test_a_character_split_between_two_reads_of_the_stream_stays_one():
         p = _SseParser()
         events = p.feed(text[:cut]) + p.feed(text[cut:])
         assert events == [("added", '{"id":"a","name":"Kamera Gr\u00fc\u00dfe \u2014 \U0001F4F7"}', "7")], cut
+
+
+def test_a_camera_that_left_is_gone_not_never_seen_and_has_its_history(daemon_factory, server_factory):
+    d = daemon_factory()
+    server = server_factory([info(1)])
+    with rsdiscovery.Client("unix:" + d.socket) as c:
+        dev = c.wait_for(lambda x: x.serial == "9876543201", timeout=20)
+        server.command(cmd="disconnect", **{"topic-root": dev.topic_root})  # 'stopping'
+        wait_for(lambda: c.list_devices() == [], what="the camera removed")
+        with pytest.raises(rsdiscovery.Gone) as gone:
+            c.get_device(dev.serial)
+        assert isinstance(gone.value, rsdiscovery.NotFound)  # code that caught NotFound still does
+        assert gone.value.gone.reason == "stopping" and gone.value.gone.device.id == dev.id
+        assert gone.value.gone.last_seen
+        with pytest.raises(rsdiscovery.NotFound) as never:
+            c.get_device("never-seen")
+        assert not isinstance(never.value, rsdiscovery.Gone)
+        h = c.device_history(dev.id)
+        assert isinstance(h, rsdiscovery.DeviceHistory) and h.state == "gone" and h.gone is not None
+        assert [(x.event, x.reason) for x in h.changes] == [("added", None), ("removed", "stopping")]
+        assert h.removals["stopping"] == 1 and h.removals["lease-expired"] == 0 and h.flaps == 0
+        whole = c.history()
+        assert [x.id for x in whole.changes] == [dev.id, dev.id] and whole.next == whole.generation
+        assert c.history(since=whole.next).changes == ()
+        with pytest.raises(rsdiscovery.NotFound):
+            c.device_history("never-seen")

@@ -16,6 +16,7 @@ from ._client import (
     DaemonNotRunning,
     Endpoint,
     Event,
+    Gone,
     HTTPError,
     MalformedReply,
     NotFound,
@@ -32,6 +33,7 @@ from ._client import (
     wait_for,
     watch,
 )
+from ._history import DeviceHistory, GoneDevice, History, HistoryChange
 from ._model import Device, DomainStatus, Health, Host, Interface, Participant, Server, Usb, UsbStatus
 from ._open import DeviceGone, NotANetworkCamera, NotReady, OpenError, Pyrealsense2Missing
 from ._query import Domains
@@ -43,6 +45,11 @@ __all__ = [
     "DaemonNotRunning",
     "Device",
     "DeviceGone",
+    "DeviceHistory",
+    "Gone",
+    "GoneDevice",
+    "History",
+    "HistoryChange",
     "DomainStatus",
     "Domains",
     "Endpoint",

@@ -12,15 +12,16 @@ import weakref
 from typing import Any, Callable, Dict, Iterator, List, Optional, Tuple
 
 from ._endpoint import Endpoint, _connect_error, _endpoint, _UnixConnection
-from ._errors import (DaemonNotRunning, HTTPError, MalformedReply, NotFound, PermissionDenied, RSDiscoveryError,
-                      VersionMismatch)
+from ._errors import (DaemonNotRunning, Gone, HTTPError, MalformedReply, NotFound, PermissionDenied,
+                      RSDiscoveryError, VersionMismatch)
+from ._history import DeviceHistory, GoneDevice, History
 from ._model import Device, DomainStatus, Health, Participant
 from ._query import _COMPLETE_POLL, Domains, _check_filters, _check_seconds, _complete, _domains, _query
 from ._watch import Event, Watcher, _generate
 
 __all__ = [
     "Client", "Endpoint", "Event", "Watcher", "RSDiscoveryError", "DaemonNotRunning", "PermissionDenied",
-    "NotFound", "MalformedReply", "VersionMismatch", "HTTPError", "list_devices", "get_device", "domains",
+    "NotFound", "Gone", "MalformedReply", "VersionMismatch", "HTTPError", "list_devices", "get_device", "domains",
     "health", "wait_for", "watch",
 ]
 
@@ -225,9 +226,34 @@ class Client:
             reply = self._json_object(path, body)
             ids = [i for i in reply.get("ids") or [] if isinstance(i, str)]
             raise NotFound(str(reply.get("error") or f"{device_id!r} names several devices"), ids)
+        if status == 410:
+            reply = self._json_object(path, body)
+            raise Gone(str(reply.get("error") or f"{device_id!r} is gone"), GoneDevice.from_json(reply.get("gone")))
         if status != 200:
             raise self._status_error(path, status, body)
         return Device.from_json(self._json_object(path, body))
+
+    def device_history(self, device_id: str) -> DeviceHistory:
+        """One camera's history by id, serial or topic-root, present or gone: its latest
+        changes (added: new or back; removed: why), its removals by reason, and, when it
+        left, its :class:`GoneDevice`. Raises :class:`NotFound` for a camera never seen."""
+        if not isinstance(device_id, str) or not device_id:
+            raise ValueError(f"device_id must be a device's id, serial or topic-root, not {device_id!r}")
+        path = "/v1/devices/" + urllib.parse.quote(device_id, safe="") + "/history"
+        status, body = self._request(path)
+        if status == 404:
+            raise NotFound(f"no device {device_id!r} was ever seen by rs-discoveryd ({self.endpoint})")
+        if status != 200:
+            raise self._status_error(path, status, body)
+        return DeviceHistory.from_json(self._json_object(path, body))
+
+    def history(self, since: int = 0, limit: Optional[int] = None) -> History:
+        """Every camera's presence changes after generation ``since``, oldest first (at most
+        ``limit``; the daemon's default is 1000); page on with ``since=page.next``."""
+        if isinstance(since, bool) or not isinstance(since, int) or since < 0:
+            raise ValueError(f"since must be a generation (an integer >= 0), not {since!r}")
+        path = f"/v1/history?since={since}" + (f"&limit={int(limit)}" if limit is not None else "")
+        return History.from_json(self._get_json(path))
 
     def describe_device(self, device_id: str, timeout: float = 35.0) -> Dict[str, Any]:
         """What a network camera can do (Camera Discovery), by id, serial or topic-root:

@@ -1,7 +1,7 @@
 """The package's errors: every one a subclass of RSDiscoveryError."""
 from __future__ import annotations
 
-from typing import List, Optional
+from typing import Any, List, Optional
 
 
 class RSDiscoveryError(Exception):
@@ -23,6 +23,16 @@ class NotFound(RSDiscoveryError):
     def __init__(self, message: str, ids: Optional[List[str]] = None) -> None:
         super().__init__(message)
         self.ids = ids or []
+
+
+class Gone(NotFound):
+    """The camera was here and left (the daemon answered 410): ``gone`` (a
+    :class:`GoneDevice`) says why, when, and what it was. A camera never seen is a plain
+    :class:`NotFound`."""
+
+    def __init__(self, message: str, gone: Any) -> None:
+        super().__init__(message)
+        self.gone = gone
 
 
 class MalformedReply(RSDiscoveryError):

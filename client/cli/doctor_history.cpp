@@ -1,0 +1,52 @@
+// rs-discover doctor's look at the daemon's history (GET /v1/history): cameras that
+// left (why, when) and cameras that flap (lost by lease and back within a minute).
+#include "doctor.hpp"
+
+#include <map>
+
+namespace rsdiscover::doctor {
+
+namespace {
+constexpr std::size_t kMostNamed = 10;  // per kind of finding: a report, not a log
+
+struct Seen {
+  std::uint64_t flaps = 0;
+  nlohmann::json last;          // the latest change
+  std::string server;           // the latest removal's words, which name the server and its host
+};
+}  // namespace
+
+void check_history(Report& r, const std::string& history_json) {
+  const auto doc = nlohmann::json::parse(history_json, nullptr, false);
+  if (!doc.is_object() || !doc.contains("changes") || !doc["changes"].is_array()) return;  // an older daemon
+  std::map<std::string, Seen> by_id;
+  for (const auto& c : doc["changes"]) {
+    if (!c.is_object()) continue;
+    Seen& s = by_id[c.value("id", "")];
+    if (c.value("flap", false)) ++s.flaps;
+    if (c.value("event", "") == "removed" && c.contains("detail")) s.server = c.value("detail", "");
+    s.last = c;
+  }
+  std::size_t gone = 0, flapping = 0;
+  for (const auto& [id, s] : by_id) {
+    if (s.flaps > 0 && flapping++ < kMostNamed)
+      r.add(Verdict::warn, "flaps",
+            id + " was lost by its lease and back within a minute " + std::to_string(s.flaps) + " time" +
+                (s.flaps == 1 ? "" : "s") + (s.server.empty() ? "" : " (last: " + s.server + ")") +
+                ": the link to its host loses packets, or its server stalls");
+    // A camera whose server said it was stopping or closed it (its writer went with the
+    // server still there, as a server that exits does), that was unplugged, or whose
+    // domain the user dropped, left on purpose: worth knowing, no fault. Lost by its
+    // lease, with the network, or refused: that explains a missing camera.
+    const std::string reason = s.last.value("reason", "?");
+    const bool meant = reason != "lease-expired" && reason != "interface-gone" && reason != "refused";
+    if (s.last.value("event", "") == "removed" && gone++ < kMostNamed)
+      r.add(meant ? Verdict::info : Verdict::warn, "gone",
+            id + " left at " + s.last.value("at", "") + ": " + reason +
+                (s.server.empty() ? "" : " (" + s.server + ")") + " ('rs-discover history " + id + "')");
+  }
+  if (gone > kMostNamed) r.add(Verdict::info, "gone", std::to_string(gone - kMostNamed) + " more cameras left");
+  if (flapping > kMostNamed) r.add(Verdict::info, "flaps", std::to_string(flapping - kMostNamed) + " more cameras flap");
+}
+
+}  // namespace rsdiscover::doctor

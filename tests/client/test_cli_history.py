@@ -1,0 +1,39 @@
+"""rs-discover history and get against the real daemon and a realdds server: a camera
+that left is `gone` with its reason, one never seen is not found."""
+import json
+
+from client_util import rs_discover
+from conftest import device_info, wait_for
+
+
+def test_history_and_get_tell_gone_from_never_seen(daemon, realdds_server, free_domain):
+    d = daemon([free_domain])
+    ep = "unix:" + d.socket
+    info = device_info(1)
+    server = realdds_server(free_domain, [info], name="history-cli")
+    wait_for(lambda: len(d.device_ids()) == 1, timeout=20, what="the camera listed")
+    device_id = d.device_ids()[0]
+    server.command(cmd="disconnect", **{"topic-root": info["topic-root"]})  # 'stopping'
+    wait_for(lambda: d.device_ids() == [], timeout=20, what="the camera removed")
+
+    r = rs_discover("get", info["serial"], endpoint=ep)
+    assert r.returncode == 1 and "is gone (stopping" in r.stderr, r.stderr
+    r = rs_discover("get", "never-seen", endpoint=ep)
+    assert r.returncode == 1 and "no device 'never-seen'" in r.stderr and "gone" not in r.stderr, r.stderr
+
+    r = rs_discover("history", device_id, endpoint=ep)
+    assert r.returncode == 0, r.stderr
+    assert f"{device_id}: gone" in r.stdout and "removals: stopping=1" in r.stdout
+    assert "removed: stopping" in r.stdout, r.stdout
+    doc = json.loads(rs_discover("history", info["serial"], "--json", endpoint=ep).stdout)
+    assert doc["state"] == "gone" and doc["gone"]["reason"] == "stopping"
+    r = rs_discover("history", "never-seen", endpoint=ep)
+    assert r.returncode == 1, (r.returncode, r.stderr)
+
+    whole = rs_discover("history", endpoint=ep)
+    assert whole.returncode == 0 and whole.stdout.count(device_id) == 2, whole.stdout
+
+    r = rs_discover("doctor", "--listen", "0", endpoint=ep)
+    gone_lines = [line for line in r.stdout.splitlines() if line.split()[:2] == ["warn", "gone"]]
+    assert gone_lines and device_id in gone_lines[0] and "stopping" in gone_lines[0], r.stdout
+    assert r.returncode == 1, (r.returncode, r.stdout)  # a warn: it explains the missing camera
