@@ -7,6 +7,7 @@
 #include "status/usb_status.hpp"
 
 #include "rsd_model/device.hpp"
+#include "rsd_model/expected.hpp"
 #include "rsd_model/participant.hpp"
 
 #include <nlohmann/json.hpp>
@@ -153,6 +154,7 @@ struct MetricsInput {
   std::uint64_t rejected = 0;
   std::map<int, std::uint64_t> requests_by_status;
   std::optional<UsbStatus> usb;  // nothing when USB is turned off
+  model::ExpectedReport expected;  // none expected: no rsd_expected_camera_present samples
 };
 
 // Prometheus text exposition format 0.0.4.
