@@ -29,6 +29,14 @@ int run(const ParsedArgs& args) {
   }
   report.add(Verdict::ok, "daemon", "rs-discoveryd " + health.version + " answers at " + client.endpoint().to_string() +
                                         (health.complete ? "" : " (its first discovery still runs: look again in a few seconds)"));
+  // The cameras it expects and misses come first: the question a robot's operator asks.
+  std::optional<rsdiscovery::Expected> expected;
+  try {
+    expected = client.expected();
+  } catch (const rsdiscovery::Error& e) {
+    if (e.code() != rsdiscovery::ErrorCode::not_found) throw;  // an older daemon: no such route
+  }
+  check_expected(report, expected);
   const auto domains = client.domains();
   // Listened to before the daemon's participants are read, so that whoever is
   // heard here is in the daemon's answer too.

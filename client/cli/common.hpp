@@ -195,5 +195,6 @@ extern const Command kDomainsCommand;
 extern const Command kParticipantsCommand;
 extern const Command kDoctorCommand;
 extern const Command kHealthCommand;
+extern const Command kWaitCommand;
 
 }  // namespace rsdiscover

@@ -59,6 +59,10 @@ bool endpoint_is_local(const std::string& endpoint);  // a Unix socket or a loop
 
 // ---- the checks (doctor_checks.cpp) -------------------------------------------------
 
+// The expected cameras not listed, first of all (doctor_expected.cpp); nothing for a
+// daemon that has no /v1/expected.
+void check_expected(Report& r, const std::optional<rsdiscovery::Expected>& expected);
+
 void check_domains(Report& r, const std::vector<rsdiscovery::DomainStatus>& domains);
 void check_other_domains(Report& r, const std::vector<rsdiscovery::DomainStatus>& domains,
                          const std::optional<spdp::Heard>& heard, double listened_s);

@@ -233,6 +233,8 @@ std::vector<Participant> Client::participants(std::optional<int> domain) {
 
 Health Client::health() { return detail::health_from_json(impl_->get_json("/healthz")); }
 
+Expected Client::expected() { return detail::expected_from_json(impl_->get_json("/v1/expected")); }
+
 std::string Client::metrics() {
   std::lock_guard lock(impl_->mutex);
   auto reply = impl_->transport.get("/metrics");

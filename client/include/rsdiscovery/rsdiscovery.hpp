@@ -196,6 +196,25 @@ struct Health {
   std::string json;
 };
 
+// The cameras the daemon's configuration expects (its `expect` key, --expect), and
+// which of them it lists now (GET /v1/expected).
+struct ExpectedCamera {
+  std::string name;        // the user's name for it ("front"); "" when unnamed
+  std::string serial;      // as configured: a serial, or
+  std::string topic_root;  // a topic-root
+  std::string id;          // present: the device that is it
+  std::string last_seen;   // missing: when the daemon last listed it, "" unknown
+  std::string reason;      // missing: why it left the list, "" unknown
+  const std::string& key() const { return serial.empty() ? topic_root : serial; }
+};
+
+struct Expected {
+  bool complete = false;  // the daemon's first discovery is over
+  std::vector<ExpectedCamera> present;
+  std::vector<ExpectedCamera> missing;
+  std::string json;
+};
+
 // ---------------------------------------------------------------------------------
 // Camera Discovery: what a network camera can do, without opening it
 // (GET /v1/devices/{id}/description)
@@ -488,6 +507,9 @@ class RSDISCOVERY_API Client {
   std::vector<Participant> participants(std::optional<int> domain = std::nullopt);
   Health health();
   std::string metrics();  // Prometheus text
+  // The expected cameras, present and missing. A daemon older than the route answers
+  // 404: Error(not_found).
+  Expected expected();
 
   // Waits until a device satisfying `predicate` is present (it may be already) and
   // returns it; nothing when `timeout` passes first. Like list(), it looks at the
