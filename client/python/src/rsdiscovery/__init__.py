@@ -32,6 +32,7 @@ from ._client import (
     wait_for,
     watch,
 )
+from ._expected import Expected, ExpectedCamera, WaitTimeout
 from ._model import Device, DomainStatus, Health, Host, Interface, Participant, Server, Usb, UsbStatus
 from ._open import DeviceGone, NotANetworkCamera, NotReady, OpenError, Pyrealsense2Missing
 from ._query import Domains
@@ -47,6 +48,8 @@ __all__ = [
     "Domains",
     "Endpoint",
     "Event",
+    "Expected",
+    "ExpectedCamera",
     "HTTPError",
     "Health",
     "Host",
@@ -64,6 +67,7 @@ __all__ = [
     "Usb",
     "UsbStatus",
     "VersionMismatch",
+    "WaitTimeout",
     "Watcher",
     "describe_device",
     "domains",
