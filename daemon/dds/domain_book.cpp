@@ -146,7 +146,7 @@ void DomainBook::stopping(const std::string& topic_root, const Writer* writer) {
   if (it == devices_.end()) return;
   auto& list = it->second.announcers;
   if (writer && std::any_of(list.begin(), list.end(), [&](const auto& a) { return a.first == writer->identity.guid; })) {
-    drop_announcer(id, writer->identity.guid, "its server is stopping");
+    drop_announcer(id, writer->identity.guid, model::RemovalReason::stopping, "its server is stopping");
     return;
   }
   // From a writer that never announced it (or an unknown one): the device goes
@@ -154,10 +154,11 @@ void DomainBook::stopping(const std::string& topic_root, const Writer* writer) {
   for (const auto& [guid, server] : list)
     if (auto n = per_participant_.find(participant_of(guid)); n != per_participant_.end() && --n->second == 0)
       per_participant_.erase(n);
-  remove_device(id, "a server says it is stopping");
+  remove_device(id, model::RemovalReason::stopping, "a server says it is stopping");
 }
 
-bool DomainBook::drop_announcer(const std::string& id, const std::string& writer_guid, const std::string& why) {
+bool DomainBook::drop_announcer(const std::string& id, const std::string& writer_guid, model::RemovalReason reason,
+                                const std::string& why) {
   auto dev = devices_.find(id);
   if (dev == devices_.end()) return true;
   auto& list = dev->second.announcers;
@@ -169,7 +170,7 @@ bool DomainBook::drop_announcer(const std::string& id, const std::string& writer
   const bool was_shown = std::next(it) == list.end();
   list.erase(it);
   if (list.empty()) {
-    remove_device(id, why);
+    remove_device(id, reason, why);
     return true;
   }
   if (was_shown) {  // another server still serves it: show that one
@@ -188,7 +189,8 @@ void DomainBook::participant_gone(const std::string& guid, Clock::time_point now
     for (const auto& [writer, server] : device.announcers)
       if (participant_of(writer) == guid) gone.emplace_back(id, writer);
   for (const auto& [id, writer] : gone)
-    drop_announcer(id, writer, "its participant " + guid + " is gone (left, or its lease expired)");
+    drop_announcer(id, writer, model::RemovalReason::lease_expired,
+                   "its participant " + guid + " is gone (left, or its lease expired)");
   // A server that announced cameras and went without 'stopping' (a crash, a cut).
   if (!gone.empty()) lost_.writer_lost(guid, now);
   for (auto it = writers_.begin(); it != writers_.end();)
@@ -202,7 +204,7 @@ void DomainBook::unindex(const std::string& writer_guid, const std::string& id) 
   }
 }
 
-void DomainBook::remove_device(const std::string& id, const std::string& why) {
+void DomainBook::remove_device(const std::string& id, model::RemovalReason reason, const std::string& why) {
   std::string by;  // the server a user knows it by: its name and address, not a GUID
   if (const auto dev = devices_.find(id); dev != devices_.end()) {
     for (const auto& [writer, server] : dev->second.announcers) unindex(writer, id);
@@ -212,8 +214,8 @@ void DomainBook::remove_device(const std::string& id, const std::string& why) {
     if (!name.empty() || !addresses.empty())
       by = " (server '" + name + "'" + (addresses.empty() ? "" : " at " + addresses[0]) + ")";
   }
-  log::info(prefix() + "device " + id + " removed: " + why + by);
-  table_.remove(id);
+  log::info(prefix() + "device " + id + " removed (" + std::string(model::to_string(reason)) + "): " + why + by);
+  table_.remove(id, reason, why + by);
   devices_.erase(id);
 }
 
@@ -247,7 +249,7 @@ void DomainBook::drop_writer_devices(const std::string& writer_guid, Clock::time
   if (of == devices_of_writer_.end()) return;
   const std::set<std::string> ids = of->second;  // drop_announcer changes the index
   for (const auto& id : ids)
-    if (drop_announcer(id, writer_guid, "its writer " + writer_guid + " is gone"))
+    if (drop_announcer(id, writer_guid, model::RemovalReason::writer_gone, "its writer " + writer_guid + " is gone"))
       lost_.writer_lost(participant_of(writer_guid), now);  // gone with its writer, not by 'stopping'
 }
 
@@ -277,8 +279,8 @@ void DomainBook::sweep(const MatchedWriters& still_matched, const std::string* o
   }
   for (const auto& [id, writer] : gone) {
     if (writer.empty()) {
-      remove_device(id, "its writer is gone");
-    } else if (drop_announcer(id, writer, "its writer " + writer + " is gone")) {
+      remove_device(id, model::RemovalReason::writer_gone, "its writer is gone");
+    } else if (drop_announcer(id, writer, model::RemovalReason::writer_gone, "its writer " + writer + " is gone")) {
       // A device gone with its writer, not by 'stopping': its server may be lost.
       lost_.writer_lost(participant_of(writer), now);
     }
@@ -374,8 +376,8 @@ std::map<std::string, PublisherCounts> DomainBook::publishers(Clock::time_point 
   return out;
 }
 
-void DomainBook::forget_devices() {
-  for (const auto& [id, device] : devices_) table_.remove(id);
+void DomainBook::forget_devices(model::RemovalReason reason) {
+  for (const auto& [id, device] : devices_) table_.remove(id, reason);
   devices_.clear();
   per_participant_.clear();
   devices_of_writer_.clear();

@@ -10,6 +10,7 @@
 #include "dds/lost_servers.hpp"
 #include "dds/participant_book.hpp"
 #include "rsd_model/device.hpp"
+#include "rsd_model/removal.hpp"
 #include "table/shared_table.hpp"
 
 #include <nlohmann/json.hpp>
@@ -131,7 +132,7 @@ class DomainBook {
   Due tick(Clock::time_point now, const MatchedWriters& still_matched);
 
   // Removes this domain's devices from the table (leaving the domain for good).
-  void forget_devices();
+  void forget_devices(model::RemovalReason reason);
   // The device with this topic-root as last announced (with its server), if any.
   std::optional<nlohmann::json> announcement(const std::string& topic_root) const;
   // topic-root -> the device as last announced, for every device.
@@ -166,8 +167,9 @@ class DomainBook {
   void stopping(const std::string& topic_root, const Writer* writer);
   // Drops one announcer of `id`; the device leaves the table with its last one,
   // else shows the latest remaining announcer. Returns whether it left.
-  bool drop_announcer(const std::string& id, const std::string& writer_guid, const std::string& why);
-  void remove_device(const std::string& id, const std::string& why);
+  bool drop_announcer(const std::string& id, const std::string& writer_guid, model::RemovalReason reason,
+                      const std::string& why);
+  void remove_device(const std::string& id, model::RemovalReason reason, const std::string& why);
   void unindex(const std::string& writer_guid, const std::string& id);  // from devices_of_writer_
   // Forgets writers no longer matched; drops the announcements of those gone
   // (only of `only`, while reconciling).

@@ -189,12 +189,12 @@ void DomainSession::follow_network(std::vector<net::NetInterface> chosen) {
   rebuild();
 }
 
-void DomainSession::forget_devices() {
+void DomainSession::forget_devices(model::RemovalReason reason) {
   {
     std::lock_guard lock(mutex_);
-    book_.forget_devices();
+    book_.forget_devices(reason);
   }
-  share_.forget_devices();
+  share_.forget_devices(reason);
 }
 
 void DomainSession::share_usb(const std::map<std::string, nlohmann::json>& cameras) {

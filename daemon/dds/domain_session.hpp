@@ -80,7 +80,7 @@ class DomainSession {
   // cure for Cyclone's stale discovery state after a short network cut.
   void rebuild();
   // Removes this domain's devices from the table (leaving the domain for good).
-  void forget_devices();
+  void forget_devices(model::RemovalReason reason);
   // The host's network changed: the participant is made anew on `chosen` (a
   // rebuild, so devices of servers still reachable stay without an event).
   void follow_network(std::vector<net::NetInterface> chosen);

@@ -47,7 +47,7 @@ void ShareBook::sample(Instance instance, const std::string& participant_guid,
     if (!known) {
       if (auto other = by_id_.find(cam.id); other != by_id_.end()) {
         // The key decides the id: only an instance handle Cyclone gave anew gets here.
-        drop(instances_.find(other->second), "replaced");
+        drop(instances_.find(other->second), "replaced", model::RemovalReason::writer_gone);
       }
       it = instances_.emplace(instance, Entry{cam.id, participant_guid, nlohmann::json()}).first;
       by_id_[cam.id] = instance;
@@ -70,7 +70,7 @@ void ShareBook::instance_gone(Instance instance, bool disposed, Clock::time_poin
   auto it = instances_.find(instance);
   if (it == instances_.end()) return;
   if (disposed) {
-    drop(it, "unshared");
+    drop(it, "unshared", model::RemovalReason::unplugged);  // its host says it left
     return;
   }
   log::debug([&] { return log::domain_prefix(options_.domain) + "shared camera " + it->second.id + " lost its writer"; });
@@ -84,10 +84,10 @@ void ShareBook::release(std::map<std::string, std::size_t>::iterator p) {
   if (p != per_participant_.end() && --p->second == 0) per_participant_.erase(p);
 }
 
-void ShareBook::drop(std::map<Instance, Entry>::iterator it, const char* why) {
+void ShareBook::drop(std::map<Instance, Entry>::iterator it, const char* why, model::RemovalReason reason) {
   if (it == instances_.end()) return;
   log::info(log::domain_prefix(options_.domain) + "shared camera " + it->second.id + " " + why);
-  table_.release(options_.domain, it->second.id);
+  table_.release(options_.domain, it->second.id, reason);
   by_id_.erase(it->second.id);
   release(per_participant_.find(it->second.participant));
   instances_.erase(it);
@@ -111,16 +111,16 @@ ShareBook::Clock::duration ShareBook::tick(Clock::time_point now) {
       continue;
     }
     log::info(log::domain_prefix(options_.domain) + "shared camera " + it->first + " not heard again");
-    table_.release(options_.domain, it->first);
+    table_.release(options_.domain, it->first, model::RemovalReason::lease_expired);
     release(per_participant_.find(it->second.entry.participant));
     it = stale_.erase(it);
   }
   return next;
 }
 
-void ShareBook::forget_devices() {
-  for (const auto& [instance, e] : instances_) table_.release(options_.domain, e.id);
-  for (const auto& [id, e] : stale_) table_.release(options_.domain, id);
+void ShareBook::forget_devices(model::RemovalReason reason) {
+  for (const auto& [instance, e] : instances_) table_.release(options_.domain, e.id, reason);
+  for (const auto& [id, e] : stale_) table_.release(options_.domain, id, reason);
   instances_.clear();
   by_id_.clear();
   stale_.clear();

@@ -59,7 +59,7 @@ class ShareBook {
   Clock::duration tick(Clock::time_point now);
 
   // Leaving the domain: every shared camera of it leaves the table.
-  void forget_devices();
+  void forget_devices(model::RemovalReason reason);
 
   std::size_t size() const { return instances_.size(); }
   // The rejected counts (shared-*), added to the domain's.
@@ -71,7 +71,7 @@ class ShareBook {
     std::string participant;
     nlohmann::json doc;  // as last given to the table
   };
-  void drop(std::map<Instance, Entry>::iterator it, const char* why);
+  void drop(std::map<Instance, Entry>::iterator it, const char* why, model::RemovalReason reason);
   void release(std::map<std::string, std::size_t>::iterator per_participant);
   void reject(const std::string& reason, const std::string& detail, const std::string& sender);
 

@@ -189,9 +189,9 @@ ShareSession::Clock::duration ShareSession::tick(Clock::time_point now) {
   return book_.tick(now);
 }
 
-void ShareSession::forget_devices() {
+void ShareSession::forget_devices(model::RemovalReason reason) {
   std::lock_guard lock(mutex_);
-  book_.forget_devices();
+  book_.forget_devices(reason);
 }
 
 void ShareSession::fill(DomainStatus& status) const {

@@ -42,7 +42,7 @@ class ShareSession {
   // addresses it is reached at: written, changed or disposed to match. Main thread.
   void publish(const std::map<std::string, nlohmann::json>& cameras, const std::vector<std::string>& addresses);
   Clock::duration tick(Clock::time_point now);
-  void forget_devices();
+  void forget_devices(model::RemovalReason reason);
   void fill(DomainStatus& status) const;
   bool sharing() const { return writer_ > 0; }
 

@@ -50,7 +50,7 @@ DomainSet::Change DomainSet::apply(const std::vector<int>& domains) {
   }
   for (auto& s : leaving) {
     s->stop();            // DDS entities gone: no listener can add a device after this
-    s->forget_devices();  // then its devices leave the table
+    s->forget_devices(model::RemovalReason::domain_left);  // then its devices leave the table
     log::notice(log::domain_prefix(s->domain()) + "left (no longer configured)");
   }
   for (int d : wanted) {

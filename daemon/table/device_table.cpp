@@ -17,9 +17,13 @@ const char* to_string(EventType type) {
   return "unknown";
 }
 
-DeviceTable::DeviceTable(std::size_t log_capacity, std::uint64_t first_generation, std::size_t log_max_bytes)
+DeviceTable::DeviceTable(std::size_t log_capacity, std::uint64_t first_generation, std::size_t log_max_bytes,
+                         HistoryLimits limits)
     : log_capacity_(std::max<std::size_t>(1, log_capacity)), log_max_bytes_(log_max_bytes),
-      generation_(first_generation) {}
+      generation_(first_generation), limits_(limits) {
+  limits_.per_camera = std::max<std::size_t>(1, limits_.per_camera);
+  limits_.total = std::max<std::size_t>(1, limits_.total);
+}
 
 nlohmann::json TableEntry::json() const { return nlohmann::json::parse(text); }
 
@@ -151,7 +155,8 @@ nlohmann::json DeviceTable::build_entry(const std::vector<std::string>& members)
 }
 
 std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& affected,
-                                                const std::set<std::string>& old_entries) {
+                                                const std::set<std::string>& old_entries, const std::string& now,
+                                                const Removal* removal) {
   const Layout next = layout(affected);
   std::vector<DeviceEvent> events;
   // Removals first, so an event stream never shows one camera twice.
@@ -159,23 +164,44 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
     if (next.count(entry_id)) continue;
     auto it = devices_.find(entry_id);
     if (it == devices_.end()) continue;
-    EntryPtr last = std::move(it->second);
+    DeviceEvent removed;
+    removed.type = EventType::removed;
+    removed.entry = std::move(it->second);
     devices_.erase(it);
+    bool merged = false;
     for (const auto& [id, members] : next)
       if (std::find(members.begin(), members.end(), entry_id) != members.end()) {
-        nlohmann::json doc = model::to_json(last->device);
+        nlohmann::json doc = model::to_json(removed.entry->device);
         doc[kMergedInto] = id;
-        last = make_entry(doc);
+        removed.entry = make_entry(doc);
+        merged = true;
       }
-    events.push_back(record(EventType::removed, std::move(last)));
+    // A merge is no departure: the camera is still listed, under the entry it joined.
+    if (!merged && removal) removed.reason = removal->reason;
+    events.push_back(record(std::move(removed)));
+    if (!events.back().reason) continue;
+    const DeviceEvent& ev = events.back();
+    note(entry_id, HistoryRecord{ev.generation, now, {}, EventType::removed, ev.reason, false, removal->detail});
+    gone_[entry_id] = GoneEntry{ev.entry, *ev.reason, now, removal->detail, ev.generation};
+    gone_order_[ev.generation] = entry_id;
+    while (gone_.size() > limits_.gone) drop_gone(gone_.find(gone_order_.begin()->second));
   }
   for (const auto& [entry_id, members] : next) {
     for (const auto& m : members) owner_[m] = entry_id;
     nlohmann::json doc = build_entry(members);
     auto it = devices_.find(entry_id);
     if (it == devices_.end()) {
-      const auto& stored = devices_.emplace(entry_id, make_entry(doc)).first->second;
-      events.push_back(record(EventType::added, stored));
+      DeviceEvent added;
+      added.type = EventType::added;
+      added.entry = devices_.emplace(entry_id, make_entry(doc)).first->second;
+      if (const auto gone = gone_.find(entry_id); gone != gone_.end()) {
+        added.back = true;
+        added.away_since = gone->second.removed_at;
+        drop_gone(gone);
+      }
+      events.push_back(record(std::move(added)));
+      note(entry_id, HistoryRecord{events.back().generation, now, {}, EventType::added, std::nullopt,
+                                   events.back().back, {}});
       continue;
     }
     const bool changed = !same_but_timestamps(model::to_json(it->second->device), doc);
@@ -214,12 +240,12 @@ std::optional<DeviceEvent> DeviceTable::upsert(const std::string& id, nlohmann::
   std::set<std::string> old_entries;
   for (const auto& s : affected)
     if (auto o = owner_.find(s); o != owner_.end()) old_entries.insert(o->second);
-  auto events = reconcile(affected, old_entries);
+  auto events = reconcile(affected, old_entries, now, nullptr);
   return event_for(events, owner_.at(id));
 }
 
-std::vector<DeviceEvent> DeviceTable::remove_sighting(const std::string& id,
-                                                      std::string& old_entry) {
+std::vector<DeviceEvent> DeviceTable::remove_sighting(const std::string& id, std::string& old_entry,
+                                                      const std::string& now, const Removal& removal) {
   std::set<std::string> affected = group_of(id);
   std::set<std::string> old_entries;
   for (const auto& s : affected)
@@ -230,25 +256,27 @@ std::vector<DeviceEvent> DeviceTable::remove_sighting(const std::string& id,
   sightings_.erase(it);
   owner_.erase(id);
   affected.erase(id);
-  return reconcile(affected, old_entries);
+  return reconcile(affected, old_entries, now, &removal);
 }
 
-std::optional<DeviceEvent> DeviceTable::remove(const std::string& id) {
+std::optional<DeviceEvent> DeviceTable::remove(const std::string& id, model::RemovalReason reason,
+                                               const std::string& now, std::string detail) {
   if (!sightings_.count(id)) return std::nullopt;
   std::string old_entry;
-  auto events = remove_sighting(id, old_entry);
+  auto events = remove_sighting(id, old_entry, now, Removal{reason, detail});
   return event_for(events, old_entry);
 }
 
-std::vector<DeviceEvent> DeviceTable::remove_if(
-    const std::function<bool(const model::Device&)>& pred) {
+std::vector<DeviceEvent> DeviceTable::remove_if(const std::function<bool(const model::Device&)>& pred,
+                                                model::RemovalReason reason, const std::string& now) {
   std::vector<std::string> doomed;
   for (const auto& [id, sighting] : sightings_)
     if (pred(sighting)) doomed.push_back(id);
   std::vector<DeviceEvent> events;
+  const std::string no_detail;
   for (const auto& id : doomed) {
     std::string old_entry;
-    auto more = remove_sighting(id, old_entry);
+    auto more = remove_sighting(id, old_entry, now, Removal{reason, no_detail});
     events.insert(events.end(), more.begin(), more.end());
   }
   return events;
@@ -302,7 +330,16 @@ std::optional<DeviceEvent> DeviceTable::note_described(const std::string& id) {
 }
 
 DeviceEvent DeviceTable::record(EventType type, EntryPtr entry, EntryPtr previous) {
-  DeviceEvent event{++generation_, type, entry->device.id, std::move(entry), std::move(previous)};
+  DeviceEvent event;
+  event.type = type;
+  event.entry = std::move(entry);
+  event.previous = std::move(previous);
+  return record(std::move(event));
+}
+
+DeviceEvent DeviceTable::record(DeviceEvent event) {
+  event.generation = ++generation_;
+  event.id = event.entry->device.id;
   log_.push_back(event);
   log_bytes_ += event.entry->text.size();
   // The newest event always stays, whatever its size: a resume from just before it works.
@@ -311,6 +348,98 @@ DeviceEvent DeviceTable::record(EventType type, EntryPtr entry, EntryPtr previou
     log_.pop_front();
   }
   return event;
+}
+
+void DeviceTable::note(const std::string& entry_id, HistoryRecord change) {
+  Camera& camera = cameras_[entry_id];
+  if (change.type == EventType::removed && change.reason) ++camera.removals[static_cast<std::size_t>(*change.reason)];
+  history_order_.emplace_back(change.generation, entry_id);
+  camera.changes.push_back(std::move(change));
+  if (camera.changes.size() > limits_.per_camera) camera.changes.pop_front();
+  while (history_order_.size() > limits_.total) {
+    const auto [generation, id] = std::move(history_order_.front());
+    history_order_.pop_front();
+    const auto c = cameras_.find(id);
+    if (c == cameras_.end()) continue;
+    auto& changes = c->second.changes;
+    if (!changes.empty() && changes.front().generation == generation) changes.pop_front();
+    if (changes.empty()) forget_camera_if_unknown(id);
+  }
+}
+
+// A camera neither listed nor gone, with no change left, is forgotten with its counts:
+// so the cameras the table knows are bounded by the entries, the gone and the changes.
+void DeviceTable::forget_camera_if_unknown(const std::string& entry_id) {
+  if (devices_.count(entry_id) || gone_.count(entry_id)) return;
+  if (const auto c = cameras_.find(entry_id); c != cameras_.end() && c->second.changes.empty()) cameras_.erase(c);
+}
+
+void DeviceTable::drop_gone(std::map<std::string, GoneEntry>::iterator it) {
+  const std::string id = it->first;
+  gone_order_.erase(it->second.generation);
+  gone_.erase(it);
+  forget_camera_if_unknown(id);
+}
+
+void DeviceTable::expire_gone(const std::string& cutoff) {
+  while (!gone_order_.empty()) {
+    const auto it = gone_.find(gone_order_.begin()->second);
+    if (it->second.removed_at >= cutoff) return;
+    drop_gone(it);
+  }
+}
+
+std::optional<GoneEntry> DeviceTable::find_gone(const std::string& key) const {
+  if (const auto it = gone_.find(key); it != gone_.end()) return it->second;
+  for (auto it = gone_order_.rbegin(); it != gone_order_.rend(); ++it) {
+    const GoneEntry& gone = gone_.at(it->second);
+    if (gone.last->device.named_by(key)) return gone;
+  }
+  return std::nullopt;
+}
+
+std::optional<CameraHistory> DeviceTable::history(const std::string& key) const {
+  std::string id;
+  if (const auto entry = find(key)) id = entry->device.id;
+  for (auto it = devices_.begin(); id.empty() && it != devices_.end(); ++it)
+    if (it->second->device.named_by(key)) id = it->first;
+  if (id.empty())
+    if (const auto gone = find_gone(key)) id = gone->last->device.id;
+  if (id.empty() && cameras_.count(key)) id = key;
+  if (id.empty()) return std::nullopt;
+  CameraHistory out;
+  out.id = id;
+  if (const auto c = cameras_.find(id); c != cameras_.end()) {
+    out.removals = c->second.removals;
+    for (HistoryRecord change : c->second.changes) {
+      change.id = id;
+      out.changes.push_back(std::move(change));
+    }
+  }
+  return out;
+}
+
+std::vector<HistoryRecord> DeviceTable::history_since(std::uint64_t generation, std::size_t max) const {
+  std::vector<HistoryRecord> out;
+  auto it = std::upper_bound(history_order_.begin(), history_order_.end(), generation,
+                             [](std::uint64_t g, const auto& kept) { return g < kept.first; });
+  for (; it != history_order_.end() && out.size() < max; ++it) {
+    const auto c = cameras_.find(it->second);
+    if (c == cameras_.end()) continue;
+    const auto& changes = c->second.changes;
+    const auto found = std::lower_bound(changes.begin(), changes.end(), it->first,
+                                        [](const HistoryRecord& r, std::uint64_t g) { return r.generation < g; });
+    if (found == changes.end() || found->generation != it->first) continue;  // dropped by the per-camera bound
+    out.push_back(*found);
+    out.back().id = it->second;
+  }
+  return out;
+}
+
+std::size_t DeviceTable::history_size() const {
+  std::size_t n = 0;
+  for (const auto& [id, camera] : cameras_) n += camera.changes.size();
+  return n;
 }
 
 }  // namespace rsd

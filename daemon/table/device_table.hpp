@@ -4,9 +4,12 @@
 #pragma once
 
 #include "rsd_model/device.hpp"
+#include "rsd_model/removal.hpp"
 
 #include <nlohmann/json.hpp>
 
+#include <array>
+#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -47,7 +50,53 @@ struct DeviceEvent {
   // changed: the entry before the change, so that a filtered reader can tell a
   // device leaving its filter (removed, for it) or entering it (added).
   EntryPtr previous;
+  // removed: why (none for an entry that merged into another: see merged-into).
+  std::optional<model::RemovalReason> reason;
+  // added: the camera was gone (a gone entry, below) and is back; `away_since` is
+  // when it was removed.
+  bool back = false;
+  std::string away_since;
   nlohmann::json device() const;  // parsed again: for tests
+};
+
+// One change of a camera's presence, as the history keeps it.
+struct HistoryRecord {
+  std::uint64_t generation = 0;  // the event's, so a history reader can resume
+  std::string at;                // when, in the form of first-seen/last-seen
+  std::string id;                // the entry's
+  EventType type = EventType::added;           // added or removed
+  std::optional<model::RemovalReason> reason;  // removed (not by a merge)
+  bool back = false;                           // added after being gone
+  std::string detail;                          // removed: the source's words on why
+};
+
+// A camera that left: findable by its id, serial or topic-root until it comes back
+// or is dropped (the oldest first beyond the count, or after HistoryLimits::gone_keep).
+struct GoneEntry {
+  EntryPtr last;  // the entry as it was last shown; its last-seen is the last sighting
+  model::RemovalReason reason = model::RemovalReason::stopping;
+  std::string removed_at;
+  std::string detail;
+  std::uint64_t generation = 0;  // of its removed event
+};
+
+// A camera's history: its latest changes, oldest first, and how often it was removed,
+// by reason (counted for as long as the table knows the camera, beyond the changes kept).
+struct CameraHistory {
+  std::string id;
+  std::vector<HistoryRecord> changes;
+  std::array<std::uint64_t, model::kRemovalReasons.size()> removals{};
+  std::uint64_t removed(model::RemovalReason r) const { return removals[static_cast<std::size_t>(r)]; }
+};
+
+// Bounds of the history, so that cameras coming and going for months cannot grow the
+// daemon: at most `per_camera` changes a camera, `total` in all (the oldest dropped
+// first), `gone` gone entries (the oldest dropped first), each kept `gone_keep`.
+struct HistoryLimits {
+  std::size_t per_camera = 64;
+  std::size_t total = 16384;
+  std::size_t gone = 1024;
+  std::chrono::seconds gone_keep{24 * 3600};  // SharedTable's clock applies it
 };
 
 // What events_since() found in the change log.
@@ -97,7 +146,7 @@ class DeviceTable {
   // events of a realdds camera: hours of changes at a lab's pace, and at a soak's
   // pace (3 a second) it is full within two minutes, after which memory stays flat.
   explicit DeviceTable(std::size_t log_capacity = 4096, std::uint64_t first_generation = 0,
-                       std::size_t log_max_bytes = 128 * 1024);
+                       std::size_t log_max_bytes = 128 * 1024, HistoryLimits limits = {});
 
   // Adds the device (sighting) `id` or updates it. `doc` is the whole device as its
   // source sees it now (an object; "id" is set here). Returns the event it caused
@@ -107,10 +156,12 @@ class DeviceTable {
   std::optional<DeviceEvent> upsert(const std::string& id, nlohmann::json doc,
                                     const std::string& now_iso8601);
 
-  // Removes the device (sighting); nothing happens (and no event) when it is not
-  // there. Returns the event of the entry that showed it: `removed`, or `changed`
-  // when the entry lives on through another source's sighting.
-  std::optional<DeviceEvent> remove(const std::string& id);
+  // Removes the device (sighting) for `reason`; nothing happens (and no event) when it
+  // is not there. Returns the event of the entry that showed it: `removed`, or `changed`
+  // when the entry lives on through another source's sighting. An entry removed
+  // becomes a gone entry; `detail` (the source's words) goes with it and its history.
+  std::optional<DeviceEvent> remove(const std::string& id, model::RemovalReason reason,
+                                    const std::string& now_iso8601, std::string detail = {});
 
   // Records a `described` event for the entry `id` (or the one its sighting is
   // merged into) without changing it; nothing when there is no such entry.
@@ -118,7 +169,8 @@ class DeviceTable {
 
   // Removes every sighting that (as its source gave it, with "id" and the
   // timestamps) satisfies `pred`; returns every event that caused.
-  std::vector<DeviceEvent> remove_if(const std::function<bool(const model::Device&)>& pred);
+  std::vector<DeviceEvent> remove_if(const std::function<bool(const model::Device&)>& pred,
+                                     model::RemovalReason reason, const std::string& now_iso8601);
 
   // The entry with this id, or the entry a sighting with this id is merged into.
   EntryPtr find(const std::string& id) const;
@@ -129,8 +181,31 @@ class DeviceTable {
   std::uint64_t generation() const { return generation_; }
   EventsSince events_since(std::uint64_t generation) const;
 
+  // The gone camera `key` names: its entry id, else the latest gone one whose serial or
+  // topic-root it is (model::Device::named_by). Nothing for a camera present or never seen.
+  std::optional<GoneEntry> find_gone(const std::string& key) const;
+  // The history of the camera `key` names: present (its id, a sighting's, a serial or a
+  // topic-root), else gone (as find_gone()).
+  std::optional<CameraHistory> history(const std::string& key) const;
+  // Every change kept after `generation`, oldest first, at most `max`.
+  std::vector<HistoryRecord> history_since(std::uint64_t generation, std::size_t max) const;
+  // Drops the gone entries removed before `cutoff_iso8601` (the same form as `at`).
+  void expire_gone(const std::string& cutoff_iso8601);
+  std::size_t gone_size() const { return gone_.size(); }
+  std::size_t history_size() const;  // changes kept, over every camera
+  const HistoryLimits& limits() const { return limits_; }
+
  private:
+  DeviceEvent record(DeviceEvent event);
   DeviceEvent record(EventType type, EntryPtr entry, EntryPtr previous = nullptr);
+  // Why the sightings reconcile() looks at changed: a removal's reason, or nothing.
+  struct Removal {
+    model::RemovalReason reason;
+    const std::string& detail;
+  };
+  void note(const std::string& entry_id, HistoryRecord change);
+  void forget_camera_if_unknown(const std::string& entry_id);
+  void drop_gone(std::map<std::string, GoneEntry>::iterator it);
 
   using Layout = std::map<std::string, std::vector<std::string>>;  // entry id -> sightings, primary first
   void index(const std::string& id, const model::Device& sighting, bool add);
@@ -140,10 +215,12 @@ class DeviceTable {
   // Re-derives the entries of `affected` sightings; `old_entries` are the entry ids
   // they had before the change. Emits events; returns them in log order.
   std::vector<DeviceEvent> reconcile(const std::set<std::string>& affected,
-                                     const std::set<std::string>& old_entries);
+                                     const std::set<std::string>& old_entries, const std::string& now,
+                                     const Removal* removal);
   std::optional<DeviceEvent> event_for(const std::vector<DeviceEvent>& events,
                                        const std::string& entry_id) const;
-  std::vector<DeviceEvent> remove_sighting(const std::string& id, std::string& old_entry);
+  std::vector<DeviceEvent> remove_sighting(const std::string& id, std::string& old_entry, const std::string& now,
+                                          const Removal& removal);
 
   // As the sources gave them, typed: as JSON objects they were the largest part of
   // the daemon's memory per camera (~2.3 KB of 10 KB at 10,000 cameras, massif).
@@ -156,6 +233,18 @@ class DeviceTable {
   std::size_t log_max_bytes_;
   std::size_t log_bytes_ = 0;
   std::uint64_t generation_ = 0;
+
+  struct Camera {
+    std::deque<HistoryRecord> changes;  // ids left empty: the key says it
+    std::array<std::uint64_t, model::kRemovalReasons.size()> removals{};
+  };
+  HistoryLimits limits_;
+  std::map<std::string, Camera> cameras_;  // by entry id
+  // (generation, entry id) of every change kept, oldest first: the total bound and
+  // history_since() walk it. It may name a change the per-camera bound dropped already.
+  std::deque<std::pair<std::uint64_t, std::string>> history_order_;
+  std::map<std::string, GoneEntry> gone_;             // by entry id
+  std::map<std::uint64_t, std::string> gone_order_;  // removal generation -> entry id
 };
 
 }  // namespace rsd

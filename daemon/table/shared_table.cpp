@@ -26,11 +26,14 @@ std::optional<DeviceEvent> SharedTable::upsert(const std::string& id, nlohmann::
   return event;
 }
 
-std::optional<DeviceEvent> SharedTable::remove(const std::string& id) {
+std::optional<DeviceEvent> SharedTable::remove(const std::string& id, model::RemovalReason reason,
+                                               std::string detail) {
   std::optional<DeviceEvent> event;
+  const std::string now = now_iso8601(), cutoff = gone_cutoff();
   {
     std::lock_guard lock(mutex_);
-    event = table_.remove(id);
+    table_.expire_gone(cutoff);
+    event = table_.remove(id, reason, now, std::move(detail));
     generation_ = table_.generation();
   }
   if (event) announce();
@@ -51,7 +54,7 @@ std::optional<DeviceEvent> SharedTable::hold(int owner, const std::string& id, n
   return event;
 }
 
-std::optional<DeviceEvent> SharedTable::release(int owner, const std::string& id) {
+std::optional<DeviceEvent> SharedTable::release(int owner, const std::string& id, model::RemovalReason reason) {
   std::optional<DeviceEvent> event;
   {
     std::lock_guard lock(mutex_);
@@ -61,7 +64,7 @@ std::optional<DeviceEvent> SharedTable::release(int owner, const std::string& id
     it->second.erase(owner);
     if (it->second.empty()) {
       held_.erase(it);
-      event = table_.remove(id);
+      event = table_.remove(id, reason, now_iso8601());
     } else if (showing) {
       event = table_.upsert(id, it->second.begin()->second, now_iso8601());
     }
@@ -82,12 +85,13 @@ std::optional<DeviceEvent> SharedTable::note_described(const std::string& id) {
   return event;
 }
 
-std::vector<DeviceEvent> SharedTable::remove_if(
-    const std::function<bool(const model::Device&)>& pred) {
+std::vector<DeviceEvent> SharedTable::remove_if(const std::function<bool(const model::Device&)>& pred,
+                                               model::RemovalReason reason) {
   std::vector<DeviceEvent> events;
+  const std::string now = now_iso8601();
   {
     std::lock_guard lock(mutex_);
-    events = table_.remove_if(pred);
+    events = table_.remove_if(pred, reason, now);
     generation_ = table_.generation();
   }
   if (!events.empty()) announce();
@@ -111,6 +115,28 @@ std::optional<nlohmann::json> SharedTable::find(const std::string& id) const {
 
 std::uint64_t SharedTable::generation() const { return generation_.load(); }
 
+std::string SharedTable::gone_cutoff() const {
+  return iso8601(std::chrono::system_clock::now() - table_.limits().gone_keep);
+}
+
+std::optional<GoneEntry> SharedTable::find_gone(const std::string& key) const {
+  const std::string cutoff = gone_cutoff();
+  std::lock_guard lock(mutex_);
+  auto gone = table_.find_gone(key);
+  if (gone && gone->removed_at < cutoff) return std::nullopt;
+  return gone;
+}
+
+std::optional<CameraHistory> SharedTable::history(const std::string& key) const {
+  std::lock_guard lock(mutex_);
+  return table_.history(key);
+}
+
+std::vector<HistoryRecord> SharedTable::history_since(std::uint64_t generation, std::size_t max) const {
+  std::lock_guard lock(mutex_);
+  return table_.history_since(generation, max);
+}
+
 EventsSince SharedTable::wait_events(std::uint64_t generation,
                                      std::chrono::milliseconds timeout) const {
   std::unique_lock lock(mutex_);
@@ -131,9 +157,10 @@ bool SharedTable::closed() const {
   return closed_;
 }
 
-std::string SharedTable::now_iso8601() {
+std::string SharedTable::now_iso8601() { return iso8601(std::chrono::system_clock::now()); }
+
+std::string SharedTable::iso8601(std::chrono::system_clock::time_point now) {
   using namespace std::chrono;
-  const auto now = system_clock::now();
   const auto ms = duration_cast<milliseconds>(now.time_since_epoch()).count() % 1000;
   const std::time_t t = system_clock::to_time_t(now);
   std::tm tm{};

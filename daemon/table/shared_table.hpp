@@ -21,11 +21,13 @@ struct TableSnapshot {
 
 class SharedTable {
  public:
-  explicit SharedTable(std::size_t log_capacity = 4096, std::uint64_t first_generation = 0)
-      : table_(log_capacity, first_generation), generation_(first_generation) {}
+  explicit SharedTable(std::size_t log_capacity = 4096, std::uint64_t first_generation = 0,
+                       HistoryLimits limits = {})
+      : table_(log_capacity, first_generation, 128 * 1024, limits), generation_(first_generation) {}
 
   std::optional<DeviceEvent> upsert(const std::string& id, nlohmann::json doc);
-  std::optional<DeviceEvent> remove(const std::string& id);
+  // DeviceTable::remove, now; gone entries older than HistoryLimits::gone_keep go too.
+  std::optional<DeviceEvent> remove(const std::string& id, model::RemovalReason reason, std::string detail = {});
   std::optional<DeviceEvent> note_described(const std::string& id);
   // A sighting that several owners report at once: another host's USB camera, shared
   // on each DDS domain that host and this daemon are both on (the owners are the
@@ -33,13 +35,19 @@ class SharedTable {
   // owner holding it, so one domain letting go (its sharer's lease there ran out)
   // does not remove a camera another domain still shows.
   std::optional<DeviceEvent> hold(int owner, const std::string& id, nlohmann::json doc);
-  std::optional<DeviceEvent> release(int owner, const std::string& id);
-  std::vector<DeviceEvent> remove_if(const std::function<bool(const model::Device&)>& pred);
+  // `reason`: why, if this was the last owner holding it.
+  std::optional<DeviceEvent> release(int owner, const std::string& id, model::RemovalReason reason);
+  std::vector<DeviceEvent> remove_if(const std::function<bool(const model::Device&)>& pred,
+                                     model::RemovalReason reason);
 
   TableSnapshot snapshot() const;
   EntryPtr find_entry(const std::string& id) const;  // DeviceTable::find
   std::optional<nlohmann::json> find(const std::string& id) const;  // the same, as JSON
   std::uint64_t generation() const;
+  // DeviceTable's, with gone entries past HistoryLimits::gone_keep left out.
+  std::optional<GoneEntry> find_gone(const std::string& key) const;
+  std::optional<CameraHistory> history(const std::string& key) const;
+  std::vector<HistoryRecord> history_since(std::uint64_t generation, std::size_t max) const;
 
   // Events after `generation`, waiting up to `timeout` for the first one. Returns
   // at once when there are some, when there is a gap, or after close().
@@ -57,6 +65,7 @@ class SharedTable {
 
   // Current UTC time as RFC 3339 with milliseconds, the form of first-seen/last-seen.
   static std::string now_iso8601();
+  static std::string iso8601(std::chrono::system_clock::time_point t);
 
  private:
   mutable std::mutex mutex_;
@@ -64,6 +73,7 @@ class SharedTable {
   std::mutex hook_mutex_;  // never held with mutex_
   std::function<void()> hook_;
   void announce();  // wakes waiters and runs the hook
+  std::string gone_cutoff() const;  // now - gone_keep, as iso8601
   DeviceTable table_;
   std::map<std::string, std::map<int, nlohmann::json>> held_;  // hold(): id -> owner -> its document
   // table_.generation(), readable without the lock: the API asks it for every request.

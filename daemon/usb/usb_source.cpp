@@ -106,7 +106,7 @@ struct UsbSource::Impl {
     for (const auto& [k, other] : known)
       if (k != key && other == id) id += "-" + url_safe(port_path(s.bus, s.ports));
     if (auto it = known.find(key); it != known.end() && it->second != id) {
-      table.remove(it->second);  // a new device at an address we missed leaving
+      table.remove(it->second, model::RemovalReason::unplugged);  // a new device at an address we missed leaving
       docs.erase(it->second);
       known.erase(it);
     }
@@ -127,9 +127,9 @@ struct UsbSource::Impl {
     std::lock_guard lock(mutex);
     auto it = known.find(key);
     if (it == known.end()) return;  // not ours, or a LEFT without ARRIVED
-    table.remove(it->second);
+    table.remove(it->second, model::RemovalReason::unplugged);
     docs.erase(it->second);
-    log::info("usb: " + it->second + " left");
+    log::info("usb: " + it->second + " left (unplugged)");
     known.erase(it);
     ++status.left;
     status.devices = known.size();
@@ -255,7 +255,8 @@ void UsbSource::stop() {
   if (d.hotplug) libusb_hotplug_deregister_callback(d.ctx, d.hotplug_handle);
   {
     std::lock_guard lock(d.mutex);
-    for (const auto& [key, id] : d.known) d.table.remove(id);
+    // Not unplugged: the daemon stopped watching USB (a reload, or its stop).
+    for (const auto& [key, id] : d.known) d.table.remove(id, model::RemovalReason::domain_left);
     d.known.clear();
     d.docs.clear();
     d.status.devices = 0;

@@ -139,8 +139,12 @@ int main(int argc, char** argv) {
       if (cmd == "upsert") {
         const auto sp2 = rest.find(' ');
         table.upsert(rest.substr(0, sp2), nlohmann::json::parse(rest.substr(sp2 + 1)));
-      } else if (cmd == "remove") {
-        table.remove(rest);
+      } else if (cmd == "remove") {  // remove ID [REASON], as the model spells it (default: stopping)
+        const auto sp2 = rest.find(' ');
+        const auto reason =
+            sp2 == std::string::npos ? rsd::model::RemovalReason::stopping
+                                     : rsd::model::parse_removal_reason(rest.substr(sp2 + 1)).value();
+        table.remove(rest.substr(0, sp2), reason);
       } else if (cmd == "domains") {
         sources.set_domains(parse_domains(rest));  // an unknown state: an error line
       } else if (cmd == "api-stop") {

@@ -56,8 +56,8 @@ TEST(DeviceTable, ChangedFieldEmitsChangedAndKeepsFirstSeen) {
 TEST(DeviceTable, RemoveKnownAndUnknown) {
   DeviceTable t;
   t.upsert("a", d455(), "T1");
-  EXPECT_FALSE(t.remove("nope"));
-  auto ev = t.remove("a");
+  EXPECT_FALSE(t.remove("nope", rsd::model::RemovalReason::stopping, "T9"));
+  auto ev = t.remove("a", rsd::model::RemovalReason::stopping, "T9");
   ASSERT_TRUE(ev);
   EXPECT_EQ(ev->type, EventType::removed);
   EXPECT_EQ(ev->device()["id"], "a");
@@ -70,7 +70,7 @@ TEST(DeviceTable, RemoveIfRemovesOnlyMatches) {
   t.upsert("a", {{"domain", 1}}, "T");
   t.upsert("b", {{"domain", 2}}, "T");
   t.upsert("c", {{"domain", 1}}, "T");
-  auto events = t.remove_if([](const rsd::model::Device& d) { return d.domain == 1; });
+  auto events = t.remove_if([](const rsd::model::Device& d) { return d.domain == 1; }, rsd::model::RemovalReason::domain_left, "T9");
   ASSERT_EQ(events.size(), 2u);
   EXPECT_EQ(t.size(), 1u);
   EXPECT_NE(t.find("b"), nullptr);
@@ -90,7 +90,7 @@ TEST(DeviceTable, ResumeReturnsEveryMissedEventInOrder) {
   DeviceTable t;
   t.upsert("a", json::object(), "T");  // 1
   t.upsert("b", json::object(), "T");  // 2
-  t.remove("a");                         // 3
+  t.remove("a", rsd::model::RemovalReason::stopping, "T9");                         // 3
   auto since = t.events_since(1);
   EXPECT_FALSE(since.gap);
   ASSERT_EQ(since.events.size(), 2u);

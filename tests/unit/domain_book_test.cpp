@@ -275,6 +275,27 @@ TEST_F(Book, ARemovalLineNamesTheServerNotOnlyGuids) {
   ::testing::internal::CaptureStderr();
   book.writer_left(1, {}, t0 + 1s);
   const std::string log = ::testing::internal::GetCapturedStderr();
-  EXPECT_NE(log.find("removed: its writer"), std::string::npos) << log;
+  EXPECT_NE(log.find("removed (writer-gone): its writer"), std::string::npos) << log;
   EXPECT_NE(log.find("(server 'server-1' at 10.0.0.1)"), std::string::npos) << log;
+  // The table keeps the same words as the camera's gone entry.
+  const auto gone = table.find_gone(id("100"));
+  ASSERT_TRUE(gone);
+  EXPECT_EQ(gone->reason, rsd::model::RemovalReason::writer_gone);
+  EXPECT_NE(gone->detail.find("server 'server-1'"), std::string::npos) << gone->detail;
+}
+
+TEST_F(Book, EachWayOfLeavingHasItsReason) {
+  using rsd::model::RemovalReason;
+  book.writer_matched(1, writer(1, 1), t0);
+  book.writer_matched(2, writer(2, 1), t0);
+  book.writer_matched(3, writer(3, 2), t0);
+  book.sample(1, info("100"));
+  book.sample(2, info("101"));
+  book.sample(3, info("102"));
+  book.sample(1, stopping("100"));
+  EXPECT_EQ(table.find_gone(id("100"))->reason, RemovalReason::stopping);
+  book.writer_gone(2, t0 + 1s);
+  EXPECT_EQ(table.find_gone(id("101"))->reason, RemovalReason::writer_gone);
+  book.participant_gone(writer(3, 2).participant_guid, t0 + 2s);
+  EXPECT_EQ(table.find_gone(id("102"))->reason, RemovalReason::lease_expired);
 }

@@ -136,8 +136,8 @@ TEST_F(Share, ACameraSharedOnTwoDomainsStaysWhileEitherHasIt) {
   EXPECT_EQ(table.generation(), generation + 1);  // one `changed`, no removal
   book.sample(2, "p-a", shared("rig-a", "1"));  // back on 7
   EXPECT_EQ(table.find_entry("usb-1.rig-a")->device.domain, 7);
-  book8.forget_devices();
-  book.forget_devices();
+  book8.forget_devices(rsd::model::RemovalReason::domain_left);
+  book.forget_devices(rsd::model::RemovalReason::domain_left);
   EXPECT_TRUE(ids().empty());
 }
 
@@ -212,7 +212,7 @@ TEST_F(Share, ForgetDevicesTakesEveryCameraOut) {
   book.sample(1, "p-a", shared("rig-a", "1"));
   book.reader_made(t0);
   book.sample(2, "p-a", shared("rig-a", "2"));
-  book.forget_devices();
+  book.forget_devices(rsd::model::RemovalReason::domain_left);
   EXPECT_TRUE(ids().empty());
 }
 

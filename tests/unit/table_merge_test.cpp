@@ -81,7 +81,7 @@ TEST(TableMerge, UnplugLeavesDdsAndDdsLeavingLeavesUsb) {
   DeviceTable t;
   t.upsert("dds-7-x", dds("123"), "T1");
   t.upsert("usb-123", usb("123"), "T2");
-  auto ev = t.remove("usb-123");
+  auto ev = t.remove("usb-123", rsd::model::RemovalReason::stopping, "T9");
   ASSERT_TRUE(ev);
   EXPECT_EQ(ev->type, EventType::changed);
   EXPECT_EQ(ev->device()["sources"], json::array({"dds"}));
@@ -90,7 +90,7 @@ TEST(TableMerge, UnplugLeavesDdsAndDdsLeavingLeavesUsb) {
   EXPECT_EQ(t.find("usb-123"), nullptr);
 
   t.upsert("usb-123", usb("123"), "T3");
-  ev = t.remove("dds-7-x");
+  ev = t.remove("dds-7-x", rsd::model::RemovalReason::stopping, "T9");
   ASSERT_TRUE(ev);
   EXPECT_EQ(ev->type, EventType::removed);
   EXPECT_EQ(ev->device()["id"], "dds-7-x");
@@ -139,7 +139,7 @@ TEST(TableMerge, OneSightingPerSourceJoins) {
   EXPECT_EQ(ids(t), (std::vector<std::string>{"dds-7-x", "dds-8-x"}));
   EXPECT_EQ(t.find("dds-7-x")->json()["sources"], json::array({"dds", "usb"}));
   EXPECT_EQ(t.find("dds-8-x")->json()["sources"], json::array({"dds"}));
-  t.remove("dds-7-x");
+  t.remove("dds-7-x", rsd::model::RemovalReason::stopping, "T9");
   EXPECT_EQ(ids(t), std::vector<std::string>{"dds-8-x"});
   EXPECT_EQ(t.find("dds-8-x")->json()["sources"], json::array({"dds", "usb"}));
 }
@@ -170,13 +170,13 @@ TEST(TableMerge, RemoveIfSeesSightingsNotEntries) {
   t.upsert("dds-7-x", dds("1"), "T");
   t.upsert("usb-1", usb("1"), "T");
   t.upsert("usb-2", usb("2"), "T");
-  auto events = t.remove_if([](const rsd::model::Device& d) { return d.source == rsd::model::Source::usb; });
+  auto events = t.remove_if([](const rsd::model::Device& d) { return d.source == rsd::model::Source::usb; }, rsd::model::RemovalReason::domain_left, "T9");
   EXPECT_EQ(events.size(), 2u);  // dds-7-x changed, usb-2 removed
   EXPECT_EQ(ids(t), std::vector<std::string>{"dds-7-x"});
   EXPECT_FALSE(t.find("dds-7-x")->json().contains("usb"));
   // The domain's DDS side torn down: the USB camera would stay.
   t.upsert("usb-1", usb("1"), "T");
-  t.remove_if([](const rsd::model::Device& d) { return d.domain == 7; });
+  t.remove_if([](const rsd::model::Device& d) { return d.domain == 7; }, rsd::model::RemovalReason::domain_left, "T9");
   EXPECT_EQ(ids(t), std::vector<std::string>{"usb-1"});
 }
 
