@@ -79,6 +79,14 @@ void check_sharing(Report& r, const std::vector<rsdiscovery::Device>& devices,
                    const std::vector<rsdiscovery::Participant>& participants,
                    const std::vector<rsdiscovery::DomainStatus>& domains);
 
+// What the librealsense of the user running this (and under sudo of the invoking user
+// and root) will see of the network cameras listed, and the fix for it
+// (doctor_librealsense.cpp). fix_librealsense returns an exit status.
+void check_librealsense(Report& r, const std::vector<rsdiscovery::Device>& devices,
+                        const std::vector<rsdiscovery::DomainStatus>& domains);
+int fix_librealsense(const std::vector<rsdiscovery::Device>& devices,
+                     const std::vector<rsdiscovery::DomainStatus>& domains);
+
 // ---- when the daemon cannot be asked (doctor_unreachable.cpp) -----------------------
 
 // What to do about `e`, by its cause; "" when there is nothing to add.
