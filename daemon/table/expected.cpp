@@ -22,7 +22,13 @@ model::ExpectedReport expected_report(const std::vector<model::ExpectedCamera>& 
 model::ExpectedReport expected_report(const std::vector<model::ExpectedCamera>& expected, const SharedTable& table,
                                       bool complete) {
   if (expected.empty()) return expected_report(expected, std::vector<EntryPtr>{}, complete);
-  return expected_report(expected, table.snapshot().devices, complete);
+  auto report = expected_report(expected, table.snapshot().devices, complete);
+  for (auto& m : report.missing)
+    if (const auto gone = table.find_gone(m.camera.key())) {
+      if (gone->last && gone->last->device.last_seen) m.last_seen = gone->last->device.last_seen;
+      m.reason = std::string(model::to_string(gone->reason));
+    }
+  return report;
 }
 
 }  // namespace rsd
