@@ -13,7 +13,9 @@ from conftest import EventStream, device_info, wait_for
 from client_util import CLI, DOMAIN_RANGE, SOURCE, rs_discover
 
 sys.path.insert(0, os.path.join(SOURCE, "client", "python", "src"))
+sys.path.insert(0, os.path.join(SOURCE, "tests", "integration"))
 import rsdiscovery  # noqa: E402
+from api_util import validate_response  # noqa: E402
 
 
 def expected_metric(d):
@@ -35,6 +37,8 @@ def test_a_camera_missing_then_started_then_gone(domains, daemon, realdds_server
                    "missing": [{"name": "front", "serial": front["serial"]},
                                {"name": "wrist", "topic-root": wrist["topic-root"]}]}, exp
     assert d.get_json("/healthz")["expected"] == exp
+    validate_response("/v1/expected", 200, exp)
+    validate_response("/healthz", 200, d.get_json("/healthz"))
     assert expected_metric(d) == {f'rsd_expected_camera_present{{name="front",serial="{front["serial"]}"}}': 0,
                                   f'rsd_expected_camera_present{{name="wrist",serial="{wrist["topic-root"]}"}}': 0}
     doc = rs_discover("doctor", "--listen", "0", endpoint=endpoint)
@@ -59,6 +63,7 @@ def test_a_camera_missing_then_started_then_gone(domains, daemon, realdds_server
     server.command(cmd="disconnect", **{"topic-root": front["topic-root"]})
     wait_for(lambda: not d.get_json("/v1/expected")["present"], what="front gone")
     gone = d.get_json("/v1/expected")["missing"][0]
+    validate_response("/v1/expected", 200, d.get_json("/v1/expected"))
     assert gone["name"] == "front" and gone["reason"] == "stopping" and gone["last-seen"], gone
     out = rs_discover("wait", "--expected", "--timeout", "0.2", endpoint=endpoint)
     assert out.returncode == 1 and "stopping" in out.stderr, out
