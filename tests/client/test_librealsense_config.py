@@ -5,6 +5,7 @@ daemon lists; doctor --fix-librealsense writes the fix, after which that very ca
 the camera. Other domain, device-mask and a broken file are each found."""
 import json
 import os
+import pwd
 import subprocess
 import sys
 import textwrap
@@ -105,3 +106,18 @@ def test_each_cause_is_found_and_fixed(camera, tmp_path, case):
     if case == "mask":
         assert config["context"]["device-mask"] == 2 | 0x20
     assert query_devices(home)["serials"] == [info["serial"]]
+
+
+def test_under_sudo_both_the_invoking_users_and_roots_are_read(camera, tmp_path):
+    if os.geteuid() != 0:
+        pytest.fail("this suite runs as root (as ./dev.sh test does), like a program under sudo")
+    d, _, _ = camera
+    home = tmp_path / "home"
+    home.mkdir()
+    invoking = pwd.getpwnam("nobody")
+    out = rs_discover("doctor", "--listen", "0", endpoint=f"unix:{d.socket}",
+                      env={"HOME": str(home), "SUDO_USER": "nobody"})
+    lines = [ln for ln in out.stdout.splitlines() if ln.split()[1:2] == ["librealsense"]]
+    assert len(lines) == 2, out.stdout
+    assert "programs of nobody" in lines[0] and f"{invoking.pw_dir}/.realsense-config.json" in lines[0], lines
+    assert "programs of root" in lines[1] and str(home / ".realsense-config.json") in lines[1], lines
