@@ -182,7 +182,10 @@ void check_librealsense(Report& r, const std::vector<rsdiscovery::Device>& devic
             (s.mask_set && (s.mask & cams.bits) != cams.bits ? ", \"device-mask\": " + std::to_string(s.mask | cams.bits)
                                                               : std::string()) +
             "}} in " + c.path + ", or 'rs-discover doctor --fix-librealsense' (keeps the rest, and a backup)";
-    r.add(Verdict::warn, "librealsense", text);
+    // No file at all is librealsense's default, which a host whose programs use no
+    // librealsense keeps: said, with its fix, without failing the doctor. A file that
+    // is there asks for DDS and does not get it: a likely cause.
+    r.add(c.state == Config::State::missing ? Verdict::info : Verdict::warn, "librealsense", text);
   }
 }
 
