@@ -33,12 +33,8 @@ std::vector<const Wanted*> missing_from(const std::vector<Wanted>& wanted, const
 std::string why_missing(const Wanted& w, const std::optional<rsdiscovery::Expected>& expected) {
   std::string text = w.shown;
   if (!expected) return text;
-  for (const auto& m : expected->missing) {
-    if (m.key() != w.key) continue;
-    if (!m.last_seen.empty()) text += ": last seen " + age_since(m.last_seen) + " ago";
-    if (!m.reason.empty()) text += (m.last_seen.empty() ? ": " : ", ") + m.reason;
-    if (m.last_seen.empty() && m.reason.empty()) text += ": never listed since the daemon started";
-  }
+  for (const auto& m : expected->missing)
+    if (m.key() == w.key) return text + ": " + missing_since(m);
   return text;
 }
 

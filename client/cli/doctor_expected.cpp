@@ -10,10 +10,8 @@ void check_expected(Report& r, const std::optional<rsdiscovery::Expected>& expec
   const auto total = expected->present.size() + expected->missing.size();
   if (total == 0) return;
   for (const auto& m : expected->missing) {
-    std::string text = (m.name.empty() ? m.key() : m.name + " (" + m.key() + ")") + " is expected and not listed";
-    if (!m.last_seen.empty()) text += ": last listed " + age_since(m.last_seen) + " ago";
-    if (!m.reason.empty()) text += (m.last_seen.empty() ? ": " : ", ") + m.reason;
-    if (m.last_seen.empty() && m.reason.empty()) text += " since the daemon started";
+    std::string text = (m.name.empty() ? m.key() : m.name + " (" + m.key() + ")") + " is expected and not listed: " +
+                       missing_since(m);
     if (!expected->complete) text += " (the daemon's first discovery still runs)";
     r.add(Verdict::fail, "expected", text);
   }

@@ -87,7 +87,7 @@ def _names(d: Device, key: str) -> bool:
 def _explain(key: str, shown: str, expected: Optional[Expected]) -> str:
     for m in expected.missing if expected else ():
         if m.key == key:
-            known = [f"last seen {m.last_seen}"] if m.last_seen else []
+            known = [f"last listed at {m.last_seen}"] if m.last_seen else []
             known += [m.reason] if m.reason else []
             return f"{shown}: {', '.join(known)}" if known else f"{shown}: never listed since the daemon started"
     return shown
