@@ -77,7 +77,8 @@ std::vector<Account> accounts() {
   const char* sudo_user = std::getenv("SUDO_USER");
   if (geteuid() == 0 && sudo_user && *sudo_user && std::string(sudo_user) != self.user)
     if (const passwd* u = getpwnam(sudo_user)) out.push_back({u->pw_name, u->pw_dir, u->pw_uid, u->pw_gid});
-  if (!self.home.empty()) out.push_back(self);
+  // sudo that keeps HOME (older Ubuntu) makes root read the invoking user's file: once.
+  if (!self.home.empty() && (out.empty() || out.front().home != self.home)) out.push_back(self);
   return out;
 }
 
