@@ -60,7 +60,7 @@ int run(const ParsedArgs& args) {
   }
 
   // The stream, not a poll: the watch lists once, then every change arrives as an
-  // event within a fraction of a millisecond of the daemon's table.
+  // event as the daemon's table makes it.
   rsdiscovery::WatchOptions options;
   auto watch = client.watch(options);
   auto missing = missing_from(wanted, watch.devices());
