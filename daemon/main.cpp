@@ -123,10 +123,11 @@ int main(int argc, char** argv) {
   // logs why and DDS carries on.
   rsd::service::UsbWatch usb(table);
   usb.apply(options.usb);
-  rsd::service::Service service(table, domains, usb, config, std::vector<std::string>(argv, argv + argc));
+  rsd::service::ExpectedSet expected;
+  rsd::service::Service service(table, domains, usb, expected, config, std::vector<std::string>(argv, argv + argc));
   service.set_network(&network);
 
-  const rsd::service::SourcesStatus status(domains, usb, options.session.describe_timeout);
+  const rsd::service::SourcesStatus status(domains, usb, expected, options.session.describe_timeout);
   rsd::api::ApiServer api(table, status, RSD_VERSION);
   rsd::api::ApiOptions api_options = options.api;
   try {

@@ -29,6 +29,14 @@ int run(const ParsedArgs& args) {
   }
   report.add(Verdict::ok, "daemon", "rs-discoveryd " + health.version + " answers at " + client.endpoint().to_string() +
                                         (health.complete ? "" : " (its first discovery still runs: look again in a few seconds)"));
+  // The cameras it expects and misses come first: the question a robot's operator asks.
+  std::optional<rsdiscovery::Expected> expected;
+  try {
+    expected = client.expected();
+  } catch (const rsdiscovery::Error& e) {
+    if (e.code() != rsdiscovery::ErrorCode::not_found) throw;  // an older daemon: no such route
+  }
+  check_expected(report, expected);
   const auto domains = client.domains();
   // Listened to before the daemon's participants are read, so that whoever is
   // heard here is in the daemon's answer too.
@@ -36,6 +44,7 @@ int run(const ParsedArgs& args) {
   if (listen_s > 0) heard = spdp::listen(std::chrono::milliseconds(static_cast<long>(listen_s * 1000)));
   const auto participants = client.participants();
   const auto devices = client.list_devices();
+  if (args.has("fix-librealsense")) return fix_librealsense(devices, domains);
   check_domains(report, domains);
   check_other_domains(report, domains, heard, listen_s);
   check_participants(report, participants, domains);
@@ -51,6 +60,7 @@ int run(const ParsedArgs& args) {
     check_history(report, client.history(0));
   } catch (const rsdiscovery::Error&) {  // a daemon without /v1/history: nothing to say
   }
+  check_librealsense(report, devices, domains);
   report.add(Verdict::info, "cameras", std::to_string(devices.size()) + " camera" + (devices.size() == 1 ? "" : "s") +
                                            " listed ('rs-discover list')");
   return report.print(args.has("json"));
@@ -74,7 +84,10 @@ const Command kDoctorCommand = {
     "and, when the daemon runs on this host, its multicast route and which network the\n"
     "participants are on; USB cameras on a USB 2 link and USB the daemon cannot watch;\n"
     "an HTTP address in the configuration that its socket unit does not listen on;\n"
-    "which hosts share USB cameras with it (share-usb), and other daemons that share none.\n"
+    "which hosts share USB cameras with it (share-usb), and other daemons that share none;\n"
+    "the expected cameras it does not list (first); and whether librealsense programs of\n"
+    "this user (under sudo: of the invoking user and of root) will see the network cameras\n"
+    "listed, from ~/.realsense-config.json (DDS off by default, domain, device-mask).\n"
     "'info' lines are worth knowing and explain none.\n"
     "Exit status: 0 nothing found explains a missing camera; 1 a line says 'warn' or\n"
     "'fail' (a likely cause); 2 usage error; 3 the daemon cannot be asked (not running,\n"
@@ -83,6 +96,9 @@ const Command kDoctorCommand = {
     {
         {"json", 'j', nullptr, "print {\"findings\": [{\"verdict\", \"topic\", \"text\"}, ...]}"},
         {"listen", 0, "S", "listen S seconds for participants on other domains (default 3; 0: do not)"},
+        {"fix-librealsense", 0, nullptr,
+         "turn on DDS in ~/.realsense-config.json (under sudo also the invoking user's) for the domain and "
+         "product lines of the cameras listed; other keys kept, the old file kept as .bak"},
     },
     doctor::run,
 };

@@ -137,6 +137,9 @@ std::string device_sources(const rsdiscovery::Device& d);
 // "5s", "3m", "2h", "4d" since an ISO 8601 UTC time; "-" when unreadable.
 std::string age_since(const std::string& iso8601);
 std::optional<double> parse_iso8601(const std::string& text);  // Unix seconds
+// What the daemon knows of a missing expected camera: "last listed 12s ago, stopping",
+// "never listed since the daemon started" (wait's and doctor's words alike).
+std::string missing_since(const rsdiscovery::ExpectedCamera& camera);
 
 // --format: TEMPLATE with {field} replaced by a field of the thing shown: any key of
 // its document ({name}, {serial}, {fw-version} ...), a nested one with dots
@@ -200,5 +203,6 @@ extern const Command kParticipantsCommand;
 extern const Command kDoctorCommand;
 extern const Command kHealthCommand;
 extern const Command kHistoryCommand;
+extern const Command kWaitCommand;
 
 }  // namespace rsdiscover

@@ -59,6 +59,10 @@ bool endpoint_is_local(const std::string& endpoint);  // a Unix socket or a loop
 
 // ---- the checks (doctor_checks.cpp) -------------------------------------------------
 
+// The expected cameras not listed, first of all (doctor_expected.cpp); nothing for a
+// daemon that has no /v1/expected.
+void check_expected(Report& r, const std::optional<rsdiscovery::Expected>& expected);
+
 void check_domains(Report& r, const std::vector<rsdiscovery::DomainStatus>& domains);
 void check_other_domains(Report& r, const std::vector<rsdiscovery::DomainStatus>& domains,
                          const std::optional<spdp::Heard>& heard, double listened_s);
@@ -76,6 +80,14 @@ void check_history(Report& r, const std::string& history_json);
 void check_sharing(Report& r, const std::vector<rsdiscovery::Device>& devices,
                    const std::vector<rsdiscovery::Participant>& participants,
                    const std::vector<rsdiscovery::DomainStatus>& domains);
+
+// What the librealsense of the user running this (and under sudo of the invoking user
+// and root) will see of the network cameras listed, and the fix for it
+// (doctor_librealsense.cpp). fix_librealsense returns an exit status.
+void check_librealsense(Report& r, const std::vector<rsdiscovery::Device>& devices,
+                        const std::vector<rsdiscovery::DomainStatus>& domains);
+int fix_librealsense(const std::vector<rsdiscovery::Device>& devices,
+                     const std::vector<rsdiscovery::DomainStatus>& domains);
 
 // ---- when the daemon cannot be asked (doctor_unreachable.cpp) -----------------------
 

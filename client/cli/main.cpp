@@ -11,7 +11,7 @@ namespace {
 
 using namespace rsdiscover;
 
-const Command* const kCommands[] = {&kListCommand, &kGetCommand, &kDescribeCommand, &kWatchCommand,
+const Command* const kCommands[] = {&kListCommand, &kGetCommand, &kDescribeCommand, &kWatchCommand, &kWaitCommand,
                                     &kDomainsCommand, &kParticipantsCommand, &kDoctorCommand, &kHealthCommand,
                                     &kHistoryCommand};
 

@@ -158,4 +158,11 @@ void Table::print(std::FILE* out) const {
   for (std::size_t r = 0; r < rows_.size(); ++r) line(rows_[r], &colors_[r], nullptr);
 }
 
+std::string missing_since(const rsdiscovery::ExpectedCamera& camera) {
+  if (camera.last_seen.empty() && camera.reason.empty()) return "never listed since the daemon started";
+  std::string text = camera.last_seen.empty() ? "" : "last listed " + age_since(camera.last_seen) + " ago";
+  if (!camera.reason.empty()) text += (text.empty() ? "" : ", ") + camera.reason;
+  return text;
+}
+
 }  // namespace rsdiscover

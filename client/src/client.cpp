@@ -260,6 +260,8 @@ std::string Client::history(std::uint64_t since) {
 
 Health Client::health() { return detail::health_from_json(impl_->get_json("/healthz")); }
 
+Expected Client::expected() { return detail::expected_from_json(impl_->get_json("/v1/expected")); }
+
 std::string Client::metrics() {
   std::lock_guard lock(impl_->mutex);
   auto reply = impl_->transport.get("/metrics");

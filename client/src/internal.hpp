@@ -35,6 +35,7 @@ std::optional<std::string> read_device_list(std::string& body, const std::string
 Description description_from_json(const nlohmann::json& doc);  // throws Error(malformed_reply)
 DomainStatus domain_from_json(const nlohmann::json& doc);
 Health health_from_json(const nlohmann::json& doc);
+Expected expected_from_json(const nlohmann::json& doc);  // throws Error(malformed_reply)
 Participant participant_from_json(const nlohmann::json& doc);
 
 // The text of each element of the array that member `key` of the JSON object

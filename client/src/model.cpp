@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "rsd_model/description.hpp"
+#include "rsd_model/expected.hpp"
 #include "rsd_model/participant.hpp"
 #include "rsd_model/status.hpp"
 
@@ -258,6 +259,23 @@ Health health_from_json(const json& doc) {
   h.complete = m.complete;
   h.json = doc.dump();
   return h;
+}
+
+Expected expected_from_json(const json& doc) {
+  auto m = read_model(rsd::model::expected_report_from_json, doc);
+  const auto public_list = [](const std::vector<rsd::model::ExpectedStatus>& list) {
+    std::vector<ExpectedCamera> out;
+    for (const auto& s : list)
+      out.push_back({s.camera.name, s.camera.serial, s.camera.topic_root, s.id.value_or(""), s.last_seen.value_or(""),
+                     s.reason.value_or("")});
+    return out;
+  };
+  Expected e;
+  e.complete = m.complete;
+  e.present = public_list(m.present);
+  e.missing = public_list(m.missing);
+  e.json = doc.dump();
+  return e;
 }
 
 bool same_device(const json& a, const json& b) {

@@ -376,6 +376,16 @@ std::string render_metrics(const MetricsInput& in) {
            "Cameras lost by lease and listed again within a minute (a lossy link, a stalling server).", in.flaps);
   w.single("rsd_gone_devices", "gauge", "Cameras that left and are still findable as gone.", in.gone);
   w.single("rsd_history_changes", "gauge", "Presence changes the history keeps, every camera.", in.history);
+  // Each expected camera at 0 or 1 from the first scrape, so an alert on 0 fires for
+  // a camera that never came. "serial" is the configured key (a topic-root for a
+  // camera expected by it): a series must not change labels as its camera comes and goes.
+  if (in.expected.expected()) {
+    w.family("rsd_expected_camera_present", "gauge", "1 when the expected camera is listed, 0 when missing.");
+    for (const auto* list : {&in.expected.present, &in.expected.missing})
+      for (const auto& c : *list)
+        w.sample("rsd_expected_camera_present", {{"name", c.camera.name}, {"serial", c.camera.key()}},
+                 list == &in.expected.present ? 1 : 0);
+  }
 
   w.single("rsd_events_sent_total", "counter", "Device events written to SSE clients.", in.events_sent);
   w.single("rsd_event_streams", "gauge", "Open SSE streams.", in.event_streams);

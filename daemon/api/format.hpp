@@ -7,6 +7,7 @@
 #include "status/usb_status.hpp"
 
 #include "rsd_model/device.hpp"
+#include "rsd_model/expected.hpp"
 #include "rsd_model/participant.hpp"
 #include "rsd_model/removal.hpp"
 
@@ -162,6 +163,7 @@ struct MetricsInput {
   std::uint64_t flaps = 0;
   std::size_t gone = 0;
   std::size_t history = 0;
+  model::ExpectedReport expected;  // none expected: no rsd_expected_camera_present samples
 };
 
 // Prometheus text exposition format 0.0.4.

@@ -7,6 +7,7 @@
 #include "api/history_format.hpp"
 #include "api/process_stats.hpp"
 #include "rsd_model/description.hpp"
+#include "table/expected.hpp"
 
 #include <algorithm>
 
@@ -261,12 +262,21 @@ void Handlers::handle_health(const ApiRequest& req, ApiResponse& res) {
     health.generation = snap.generation;
   }
   health.http = http_status;
+  if (auto expected = status.expected(); !expected.empty())
+    health.expected = expected_report(expected, table, health.complete);
   if (const auto u = status.usb()) {
     health.usb.state = u->state;
     health.usb.devices = u->devices;
     if (!u->error.empty()) health.usb.error = u->error;
   }
   send_json(res, 200, model::to_json(health));
+}
+
+void Handlers::handle_expected(const ApiRequest& req, ApiResponse& res) {
+  if (auto err = check_params("/v1/expected", req.params, {})) return send_error(res, 400, *err);
+  // Completeness first, as for the list: "complete": true promises the table was read after.
+  const bool done = status.discovery_complete();
+  send_json(res, 200, model::to_json(expected_report(status.expected(), table, done)));
 }
 
 void Handlers::handle_metrics(const ApiRequest& req, ApiResponse& res) {
@@ -277,6 +287,7 @@ void Handlers::handle_metrics(const ApiRequest& req, ApiResponse& res) {
   in.domains = domains();
   in.usb = status.usb();
   auto snap = table.snapshot();
+  in.expected = expected_report(status.expected(), snap.devices, status.discovery_complete());
   in.devices_per_domain = count_by_domain(snap.devices);
   in.devices_total = snap.devices.size();
   in.generation = snap.generation;

@@ -34,6 +34,7 @@ class Handlers {
   void handle_domains(const ApiRequest& req, ApiResponse& res);
   void handle_participants(const ApiRequest& req, ApiResponse& res);
   void handle_health(const ApiRequest& req, ApiResponse& res);
+  void handle_expected(const ApiRequest& req, ApiResponse& res);
   void handle_page(const ApiRequest& req, ApiResponse& res);
   void handle_spec(const ApiRequest& req, ApiResponse& res);
   void handle_metrics(const ApiRequest& req, ApiResponse& res);

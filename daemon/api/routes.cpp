@@ -12,7 +12,7 @@ namespace rsd::api {
 namespace {
 
 // The paths of proto/openapi.yaml, and the page and the spec themselves.
-const std::array<Route, 12> kRoutes = {{
+const std::array<Route, 13> kRoutes = {{
     {"GET", "/v1/devices", &Handlers::handle_devices},
     {"GET", "/v1/devices/{id}", &Handlers::handle_device},
     {"GET", "/v1/devices/{id}/description", &Handlers::handle_description, true},
@@ -21,6 +21,7 @@ const std::array<Route, 12> kRoutes = {{
     {"GET", "/v1/events", &Handlers::handle_events},
     {"GET", "/v1/domains", &Handlers::handle_domains},
     {"GET", "/v1/participants", &Handlers::handle_participants},
+    {"GET", "/v1/expected", &Handlers::handle_expected},
     {"GET", "/healthz", &Handlers::handle_health},
     {"GET", "/metrics", &Handlers::handle_metrics},
     {"GET", "/", &Handlers::handle_page},

@@ -209,6 +209,11 @@ Options:
       --describe-eagerly N|all
                              describe the cameras of domain N (repeat) or of every domain
                              as they appear, not only when asked (default: when asked)
+      --expect [NAME=]SERIAL|[NAME=]TOPIC-ROOT
+                             a camera this host is built with (repeat; front=123456,
+                             wrist=realsense/D555_123): /v1/expected, /healthz, /metrics
+                             and the service status say which are listed (a reload
+                             applies a changed list)
   -V, --version              print the version and exit
   -h, --help                 print this help and exit
 

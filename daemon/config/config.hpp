@@ -2,6 +2,7 @@
 // command-line flags (flags win), validated into one plain struct.
 #pragma once
 
+#include "rsd_model/expected.hpp"
 #include "rsd_model/socket_path.hpp"
 
 #include <cstddef>
@@ -55,6 +56,9 @@ struct Config {
   std::vector<std::string> allowed_hosts;
   // API clients at once, over both listeners; beyond, a 503 with Retry-After.
   std::size_t max_clients = 4096;
+  // The cameras this host is built with (a robot's, a rig's): /v1/expected, /healthz,
+  // /metrics and STATUS= say which of them are listed. Empty: none expected.
+  std::vector<model::ExpectedCamera> expect;
   std::string config_file;        // where the file part came from ("" : none)
 };
 

@@ -159,6 +159,36 @@ void list_from_flag(const std::string& text, Config& c, bool first, const std::s
   (c.*Field).push_back(Parse(text, where));
 }
 
+// The expected cameras: the file gives the list, each a string or an object; the flag
+// repeats ("front=123456"), its first use replacing the file's list. One key once.
+void add_expected(std::vector<model::ExpectedCamera>& list, const std::optional<model::ExpectedCamera>& camera,
+                  const std::string& error, const std::string& where) {
+  if (!camera) throw ConfigError(where + ": " + error);
+  for (const auto& e : list)
+    if (e.key() == camera->key() || (!e.name.empty() && e.name == camera->name))
+      throw ConfigError(where + ": '" + (e.key() == camera->key() ? e.key() : e.name) + "' is expected twice");
+  if (list.size() >= model::kMaxExpected)
+    throw ConfigError(where + ": at most " + std::to_string(model::kMaxExpected) + " expected cameras");
+  list.push_back(*camera);
+}
+
+void expect_from_file(const json& v, Config& c, const std::string& at) {
+  if (!v.is_array()) throw ConfigError(at + " must be a list of serials or topic-roots (\"front=123456\", ...)");
+  c.expect.clear();
+  for (const auto& e : v) {
+    std::string error;
+    const auto camera = model::expected_from_json(e, &error);
+    add_expected(c.expect, camera, error, at);
+  }
+}
+
+void expect_from_flag(const std::string& text, Config& c, bool first, const std::string& where) {
+  if (first) c.expect.clear();
+  std::string error;
+  const auto camera = model::parse_expected(text, &error);
+  add_expected(c.expect, camera, error, where);
+}
+
 constexpr char kHostNames[] = "host names";
 constexpr char kInterfacePatterns[] = "interface names or patterns";
 
@@ -257,6 +287,8 @@ const ConfigKey kKeys[] = {
      },
      copy<&Config::describe_eagerly_all, &Config::describe_eagerly>,
      same<&Config::describe_eagerly_all, &Config::describe_eagerly>},
+    {"expect", "expect", '\0', true, Reload::live, expect_from_file, expect_from_flag, copy<&Config::expect>,
+     same<&Config::expect>},
 };
 
 #undef RSD_LIMIT

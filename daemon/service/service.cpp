@@ -3,6 +3,7 @@
 #include "config/config_keys.hpp"
 #include "config/daemon_options.hpp"
 #include "log/log.hpp"
+#include "table/expected.hpp"
 
 #include <algorithm>
 
@@ -35,9 +36,21 @@ std::string status_text(std::string_view phase, std::size_t devices, const std::
   return text;
 }
 
-Service::Service(const SharedTable& table, DomainSet& domains, UsbWatch& usb, Config config,
+std::string expected_text(const model::ExpectedReport& report) {
+  if (report.expected() == 0) return "";
+  std::string text = std::to_string(report.present.size()) + " of " + std::to_string(report.expected()) +
+                     (report.expected() == 1 ? " expected camera" : " expected cameras");
+  std::vector<std::string> missing;
+  for (const auto& m : report.missing) missing.push_back(model::describe(m.camera));
+  if (!missing.empty()) text += " (missing: " + join(missing, ", ") + ")";
+  return text;
+}
+
+Service::Service(const SharedTable& table, DomainSet& domains, UsbWatch& usb, ExpectedSet& expected, Config config,
                  std::vector<std::string> args)
-    : table_(table), domains_(domains), usb_(usb), config_(std::move(config)), args_(std::move(args)) {
+    : table_(table), domains_(domains), usb_(usb), expected_(expected), config_(std::move(config)),
+      args_(std::move(args)) {
+  expected_.set(config_.expect);
   if (notifier_.active())
     log::debug("service: notifying the service manager" +
                (notifier_.watchdog() ? "; watchdog every " + std::to_string(notifier_.watchdog()->count()) + " us"
@@ -65,10 +78,13 @@ bool Service::healthy(std::string* why) const {
 std::string Service::current_status(bool ready) {
   const auto generation = table_.generation();
   if (generation != counted_generation_) {
-    device_count_ = table_.snapshot().devices.size();
+    const auto snap = table_.snapshot();
+    device_count_ = snap.devices.size();
+    expected_text_ = expected_text(expected_report(config_.expect, snap.devices, domains_.discovery_complete()));
     counted_generation_ = generation;
   }
-  std::string note = note_;
+  std::string note = expected_text_;
+  if (!note_.empty()) note += (note.empty() ? "" : "; ") + note_;
   std::string why;
   if (!healthy(&why)) note += (note.empty() ? "" : "; ") + why;
   // USB is named only while it is watched: not when off, nor when unavailable here.
@@ -164,6 +180,8 @@ void Service::reload() {
     if (key.reload == Reload::live) key.copy(next, config_);
   config_.domains = domains_.ids();
   config_.config_file = next.config_file;
+  expected_.set(config_.expect);
+  counted_generation_ = ~std::uint64_t{0};  // STATUS= counts the new list
 
   note_ = change.failed.empty() ? "" : "reload could not join " + join(change.failed, "; ");
   std::vector<std::string> what;

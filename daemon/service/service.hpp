@@ -6,6 +6,7 @@
 
 #include "config/config.hpp"
 #include "service/domain_set.hpp"
+#include "service/expected_set.hpp"
 #include "service/network_watch.hpp"
 #include "service/notifier.hpp"
 #include "service/usb_watch.hpp"
@@ -24,13 +25,18 @@ namespace rsd::service {
 std::string status_text(std::string_view phase, std::size_t devices, const std::vector<int>& domains, bool usb,
                         std::string_view note);
 
+// STATUS='s part for the expected cameras: "2 of 3 expected cameras (missing: wrist
+// (123456))"; "" when none are expected.
+std::string expected_text(const model::ExpectedReport& report);
+
 class Service {
  public:
   using Clock = std::chrono::steady_clock;
 
   // `args` is the command line the daemon started with: a reload parses it
   // again, so flags keep winning over the re-read config file.
-  Service(const SharedTable& table, DomainSet& domains, UsbWatch& usb, Config config,
+  // `expected` is set from the configuration here and on every reload.
+  Service(const SharedTable& table, DomainSet& domains, UsbWatch& usb, ExpectedSet& expected, Config config,
           std::vector<std::string> args);
 
   void api_listening();  // the last READY=1 condition besides the domains
@@ -56,6 +62,7 @@ class Service {
   const SharedTable& table_;
   DomainSet& domains_;
   UsbWatch& usb_;
+  ExpectedSet& expected_;
   NetworkWatch* network_ = nullptr;
   Config config_;
   std::vector<std::string> args_;
@@ -69,6 +76,7 @@ class Service {
   std::string last_status_;
   std::uint64_t counted_generation_ = ~std::uint64_t{0};
   std::size_t device_count_ = 0;
+  std::string expected_text_;  // of counted_generation_
   Clock::time_point next_watchdog_{};
   bool unhealthy_logged_ = false;
 };

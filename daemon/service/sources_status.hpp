@@ -3,6 +3,7 @@
 #pragma once
 
 #include "service/domain_set.hpp"
+#include "service/expected_set.hpp"
 #include "service/usb_watch.hpp"
 #include "status/status_source.hpp"
 
@@ -12,18 +13,21 @@ namespace rsd::service {
 
 class SourcesStatus final : public StatusSource {
  public:
-  SourcesStatus(const DomainSet& domains, const UsbWatch& usb, std::chrono::milliseconds describe_wait)
-      : domains_(domains), usb_(usb), describe_wait_(describe_wait) {}
+  SourcesStatus(const DomainSet& domains, const UsbWatch& usb, const ExpectedSet& expected,
+                std::chrono::milliseconds describe_wait)
+      : domains_(domains), usb_(usb), expected_(expected), describe_wait_(describe_wait) {}
 
   std::vector<DomainStatus> domains() const override { return domains_.status(); }
   bool discovery_complete() const override { return domains_.discovery_complete(); }
   std::vector<model::Participant> participants() const override { return domains_.participants(); }
   std::optional<UsbStatus> usb() const override { return usb_.status(); }
   DeviceDescription describe(const std::string& id) const override { return domains_.describe(id, describe_wait_); }
+  std::vector<model::ExpectedCamera> expected() const override { return expected_.get(); }
 
  private:
   const DomainSet& domains_;
   const UsbWatch& usb_;
+  const ExpectedSet& expected_;
   std::chrono::milliseconds describe_wait_;
 };
 

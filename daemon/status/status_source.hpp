@@ -8,6 +8,7 @@
 #include "status/domain_status.hpp"
 #include "status/usb_status.hpp"
 
+#include "rsd_model/expected.hpp"
 #include "rsd_model/participant.hpp"
 
 #include <optional>
@@ -37,6 +38,8 @@ class StatusSource {
   // Camera Discovery of the device `id` (an entry of the table); blocks up to the
   // daemon's describe timeout.
   virtual DeviceDescription describe(const std::string& id) const = 0;
+  // The cameras the configuration expects (`expect`), in its order; none by default.
+  virtual std::vector<model::ExpectedCamera> expected() const { return {}; }
 };
 
 }  // namespace rsd

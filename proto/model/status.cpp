@@ -36,6 +36,7 @@ constexpr const char* listening = "listening";
 constexpr const char* configured = "configured";
 constexpr const char* from = "from";
 constexpr const char* agrees = "agrees";
+constexpr const char* expected = "expected";
 }  // namespace key
 
 }  // namespace
@@ -130,6 +131,7 @@ nlohmann::json to_json(const Health& h) {
                       {key::configured, h.http->configured},
                       {key::from, h.http->from},
                       {key::agrees, h.http->agrees}};
+  if (h.expected) doc[key::expected] = to_json(*h.expected);
   return doc;
 }
 
@@ -157,6 +159,7 @@ Health health_from_json(const nlohmann::json& doc) {
     out.agrees = flag(http, key::agrees, what);
     h.http = out;
   }
+  if (doc.contains(key::expected)) h.expected = expected_report_from_json(doc[key::expected]);
   return h;
 }
 

@@ -80,3 +80,13 @@ TEST(ClassifySocket, WrongKindIsUnusableWithAReason) {
   EXPECT_NE(why.find("not a listening"), std::string::npos) << why;
   unlink(path.c_str());
 }
+
+TEST(StatusText, ExpectedCameras) {
+  rsd::model::ExpectedReport report;
+  EXPECT_EQ(rsd::service::expected_text(report), "");
+  report.present.push_back({{"front", "1", ""}, "dds-0-x", {}, {}});
+  report.missing.push_back({{"wrist", "", "realsense/D555_2"}, {}, {}, {}});
+  report.missing.push_back({{"", "3", ""}, {}, {}, {}});
+  EXPECT_EQ(rsd::service::expected_text(report),
+            "1 of 3 expected cameras (missing: wrist (realsense/D555_2), 3)");
+}

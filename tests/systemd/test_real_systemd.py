@@ -391,6 +391,42 @@ def test_reload_adds_a_domain_survives_an_invalid_file_and_goes_back(system):
     assert main_pid(c) == pid  # reloads, never restarts
 
 
+ROBOT_UNIT = """[Unit]
+Wants=rs-discoveryd.service
+After=rs-discoveryd.service
+[Service]
+Type=oneshot
+RemainAfterExit=yes
+ExecStartPre=/usr/bin/rs-discover wait --expected --timeout 3
+ExecStart=/bin/true
+"""
+
+
+def test_a_robot_program_starts_only_with_its_expected_cameras(system):
+    # docs/robots.md's ExecStartPre=: with a camera expected that is not there the
+    # program's unit fails to start, its journal naming the camera; once the list is
+    # empty (nothing left to wait for) it starts. STATUS= counts the expected ones.
+    c = system
+    c.run("sh", "-ec", "cat > /etc/systemd/system/rsd-robot-test.service", input=ROBOT_UNIT)
+    c.run("systemctl", "daemon-reload")
+    write_config(c, domains=[0], expect=["arm=5550000099"])
+    c.run("systemctl", "reload", SERVICE)
+    wait_for(lambda: "0 of 1 expected camera (missing: arm (5550000099))" in status_text(c), timeout=10,
+             what="STATUS= with the missing camera")
+    r = c.run("systemctl", "start", "rsd-robot-test.service", check=False, timeout=60)
+    assert r.returncode != 0, (r.stdout, r.stderr)
+    log = c.run("journalctl", "-b", "-u", "rsd-robot-test.service", "--no-pager", "-o", "cat").stdout
+    assert "arm (5550000099): never listed since the daemon started" in log, log
+    write_config(c, domains=[0])
+    c.run("systemctl", "reload", SERVICE)
+    wait_for(lambda: "expected" not in status_text(c), timeout=10, what="STATUS= without expected cameras")
+    c.run("systemctl", "start", "rsd-robot-test.service", timeout=60)
+    assert c.run("systemctl", "is-active", "rsd-robot-test.service").stdout.strip() == "active"
+    c.run("systemctl", "stop", "rsd-robot-test.service")
+    c.run("rm", "/etc/systemd/system/rsd-robot-test.service")
+    c.run("systemctl", "daemon-reload")
+
+
 def test_journal_keeps_the_priorities(system):
     c = system
     lines = journal(c)

@@ -17,6 +17,8 @@
 // threads while the daemon may go away should ignore SIGPIPE, as network programs do.
 #pragma once
 
+#include <rsdiscovery/expected.hpp>
+
 #include <chrono>
 #include <cstdint>
 #include <exception>
@@ -496,6 +498,9 @@ class RSDISCOVERY_API Client {
   std::string device_history(const std::string& id);
   // Every camera's changes after generation `since` (GET /v1/history), as JSON text.
   std::string history(std::uint64_t since = 0);
+  // The expected cameras, present and missing. A daemon older than the route answers
+  // 404: Error(not_found).
+  Expected expected();
 
   // Waits until a device satisfying `predicate` is present (it may be already) and
   // returns it; nothing when `timeout` passes first. Like list(), it looks at the

@@ -4,6 +4,7 @@
 // them through from_json: one spelling of every key, as for devices (device.hpp).
 #pragma once
 
+#include "rsd_model/expected.hpp"
 #include "rsd_model/names.hpp"
 
 #include <nlohmann/json.hpp>
@@ -98,6 +99,8 @@ struct Health {
   bool complete = false;
   UsbHealth usb;
   std::optional<HttpHealth> http;  // absent from older daemons
+  // The expected cameras (`expect`) and which are listed; absent when none are expected.
+  std::optional<ExpectedReport> expected;
 };
 
 // A document that is not what the spec says (a missing or mistyped key).

@@ -33,6 +33,7 @@ from ._client import (
     wait_for,
     watch,
 )
+from ._expected import Expected, ExpectedCamera, WaitTimeout
 from ._history import DeviceHistory, GoneDevice, History, HistoryChange
 from ._model import Device, DomainStatus, Health, Host, Interface, Participant, Server, Usb, UsbStatus
 from ._open import DeviceGone, NotANetworkCamera, NotReady, OpenError, Pyrealsense2Missing
@@ -54,6 +55,8 @@ __all__ = [
     "Domains",
     "Endpoint",
     "Event",
+    "Expected",
+    "ExpectedCamera",
     "HTTPError",
     "Health",
     "Host",
@@ -71,6 +74,7 @@ __all__ = [
     "Usb",
     "UsbStatus",
     "VersionMismatch",
+    "WaitTimeout",
     "Watcher",
     "describe_device",
     "domains",

@@ -11,6 +11,7 @@ import urllib.parse
 import weakref
 from typing import Any, Callable, Dict, Iterator, List, Optional, Tuple
 
+from ._expected import Expected, wait as _wait
 from ._endpoint import Endpoint, _connect_error, _endpoint, _UnixConnection
 from ._errors import (DaemonNotRunning, Gone, HTTPError, MalformedReply, NotFound, PermissionDenied,
                       RSDiscoveryError, VersionMismatch)
@@ -322,6 +323,24 @@ class Client:
         ``devices``, ``complete`` (false while the daemon's first discovery still runs:
         ``devices`` is not final then), ``usb``."""
         return Health.from_json(self._get_json("/healthz"))
+
+    def expected(self) -> Expected:
+        """The cameras the daemon's configuration expects (``GET /v1/expected``), present and
+        missing. A daemon older than the route raises :class:`NotFound`."""
+        return Expected.from_json(self._get_json("/v1/expected"))
+
+    def wait(self, *keys: str, expected: bool = False, timeout: float = 30.0) -> List[Device]:
+        """Waits until every camera named in ``keys`` (id, serial or topic-root) and, with
+        ``expected``, every camera the daemon expects is listed; returns their devices, in
+        that order. It follows the event stream: it returns as soon as the last one is
+        there. Raises :class:`WaitTimeout` (a :class:`TimeoutError`) naming the missing ones,
+        with what the daemon knows of why, when ``timeout`` seconds pass first."""
+        _check_seconds("timeout", timeout)
+        if not keys and not expected:
+            raise ValueError("name the cameras to wait for, or pass expected=True")
+        if not all(isinstance(k, str) and k for k in keys):
+            raise ValueError(f"cameras are named by id, serial or topic-root strings, not {keys!r}")
+        return _wait(self, keys, expected, timeout)
 
     def watcher(self, **kwargs: Any) -> Watcher:
         """A :class:`Watcher` (pull with timeouts); keyword arguments as :meth:`watch`."""
