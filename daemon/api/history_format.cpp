@@ -38,17 +38,17 @@ nlohmann::json to_json(const HistoryRecord& c) {
   return out;
 }
 
-nlohmann::json history_json(const CameraHistory& h, const std::optional<GoneEntry>& gone) {
+nlohmann::json history_json(const CameraHistory& h, bool present, const std::optional<GoneEntry>& gone) {
   nlohmann::json changes = nlohmann::json::array();
   for (const auto& c : h.changes) changes.push_back(to_json(c));
   nlohmann::json removals = nlohmann::json::object();
   for (const auto r : model::kRemovalReasons) removals[std::string(model::to_string(r))] = h.removed(r);
   nlohmann::json out = {{model::key::id, h.id},
-                        {model::key::state, gone ? model::kStateGone : model::kStatePresent},
+                        {model::key::state, present ? model::kStatePresent : model::kStateGone},
                         {model::key::changes, std::move(changes)},
                         {model::key::removals, std::move(removals)},
                         {model::key::flaps, h.flaps}};
-  if (gone) out[model::key::gone] = gone_json(*gone);
+  if (!present && gone) out[model::key::gone] = gone_json(*gone);
   return out;
 }
 

@@ -17,9 +17,10 @@ namespace rsd::api {
 std::string event_document(const DeviceEvent& event, EventType sent_as);
 
 nlohmann::json to_json(const HistoryRecord& change);
-// GET /v1/devices/{key}/history: the camera's state (present or gone), its changes
-// and its removals by reason (every reason, 0 included).
-nlohmann::json history_json(const CameraHistory& history, const std::optional<GoneEntry>& gone);
+// GET /v1/devices/{key}/history: the camera's state (present, else gone, with its gone
+// entry while the table keeps it), its changes and its removals by reason (every
+// reason, 0 included).
+nlohmann::json history_json(const CameraHistory& history, bool present, const std::optional<GoneEntry>& gone);
 // GET /v1/devices/{key} of a camera that left: 410 Gone with this body.
 nlohmann::json gone_json(const GoneEntry& gone);
 

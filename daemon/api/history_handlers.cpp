@@ -14,9 +14,8 @@ void Handlers::handle_device_history(const ApiRequest& req, ApiResponse& res) {
   if (auto err = check_params("/v1/devices/{id}/history", req.params, {})) return send_error(res, 400, *err);
   const auto history = table.history(req.id);
   if (!history) return send_error(res, 404, "no device with id '" + req.id + "' was ever seen (or it is forgotten)");
-  std::optional<GoneEntry> gone;
-  if (!table.find_entry(history->id)) gone = table.find_gone(history->id);
-  send_json(res, 200, history_json(*history, gone));
+  const bool present = table.find_entry(history->id) != nullptr;
+  send_json(res, 200, history_json(*history, present, present ? std::nullopt : table.find_gone(history->id)));
 }
 
 void Handlers::handle_history(const ApiRequest& req, ApiResponse& res) {
