@@ -29,16 +29,13 @@ int run(const ParsedArgs& args) {
   for (const auto& key : args.positional) {
     std::optional<rsdiscovery::Device> device;
     try {
-      device = client.find_device(key);
+      device = client.get_device(key);
     } catch (const rsdiscovery::Error& e) {
-      if (e.http_status() != 410) throw;
-      // Gone is not never seen: the daemon's words say why and since when.
-      std::fprintf(stderr, "rs-discover: %s ('rs-discover history %s' tells more)\n", e.what(), key.c_str());
-      status = kNotFound;
-      continue;
-    }
-    if (!device) {
-      report_no_device(key);
+      if (e.code() != rsdiscovery::ErrorCode::not_found || e.http_status() == 409) throw;
+      if (e.http_status() == 410)  // gone is not never seen: the daemon's words say why and since when
+        std::fprintf(stderr, "rs-discover: %s ('rs-discover history %s' tells more)\n", e.what(), key.c_str());
+      else
+        report_no_device(key);
       status = kNotFound;
       continue;
     }

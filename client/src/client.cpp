@@ -50,6 +50,7 @@ struct Client::Impl {
   }
 
   DeviceList list(const DeviceFilter& filter, Clock::time_point deadline, const std::vector<std::string>& fields = {});
+  std::optional<Device> find_device(const std::string& id, std::string* gone);
   // The daemon answered 400 to ?fields= (older than it): whole documents from then on.
   bool fields_refused = false;  // under `mutex`
 
@@ -119,16 +120,17 @@ DeviceList Client::list(const DeviceFilter& filter, const std::vector<std::strin
   return impl_->list(filter, impl_->complete_deadline(), fields);
 }
 
-std::vector<Device> Client::list_devices(const DeviceFilter& filter) { return list(filter).devices; }
-
-std::optional<Device> Client::find_device(const std::string& id) {
+// GET /v1/devices/{id}: nothing when absent. A camera that was here and left (410)
+// is absent too, so a program polling for one keeps its "nothing"; `gone`, when
+// given, gets the daemon's sentence saying why and since when.
+std::optional<Device> Client::Impl::find_device(const std::string& id, std::string* gone) {
   std::string path = "/v1/devices/" + detail::percent_encode(id);
-  const auto deadline = impl_->complete_deadline();
+  const auto deadline = complete_deadline();
   detail::Reply reply;
   for (;;) {
     {
-      std::lock_guard lock(impl_->mutex);
-      reply = impl_->transport.get(path);
+      std::lock_guard lock(mutex);
+      reply = transport.get(path);
     }
     if (reply.status != 404) break;
     // Absent from an incomplete table: it may be a camera not heard from yet.
@@ -146,25 +148,33 @@ std::optional<Device> Client::find_device(const std::string& id) {
         if (other.is_string()) message += "\n  " + other.get<std::string>();
     throw Error(ErrorCode::not_found, message, 409);
   }
-  if (reply.status == 410) {  // it was here and left: say why, not "no such device"
-    auto body = json::parse(reply.body, nullptr, false);
-    std::string message = "device '" + id + "' is gone";
-    if (body.is_object() && body.contains("error") && body["error"].is_string())
-      message = body["error"].get<std::string>();
-    throw Error(ErrorCode::not_found, message, 410);
+  if (reply.status == 410) {
+    if (gone) {
+      auto body = json::parse(reply.body, nullptr, false);
+      *gone = "device '" + id + "' is gone";
+      if (body.is_object() && body.contains("error") && body["error"].is_string())
+        *gone = body["error"].get<std::string>();
+    }
+    return std::nullopt;
   }
   if (reply.status != 200) {
-    std::lock_guard lock(impl_->mutex);
-    impl_->transport.get_json(path);  // turns the status into its Error
-    malformed(impl_->endpoint, "GET " + path + " answered " + std::to_string(reply.status));
+    std::lock_guard lock(mutex);
+    transport.get_json(path);  // turns the status into its Error
+    malformed(endpoint, "GET " + path + " answered " + std::to_string(reply.status));
   }
   auto doc = json::parse(reply.body, nullptr, false);
-  if (doc.is_discarded()) malformed(impl_->endpoint, "GET " + path + " is not JSON");
+  if (doc.is_discarded()) malformed(endpoint, "GET " + path + " is not JSON");
   return detail::device_from_json(doc, std::move(reply.body));
 }
 
+std::vector<Device> Client::list_devices(const DeviceFilter& filter) { return list(filter).devices; }
+
+std::optional<Device> Client::find_device(const std::string& id) { return impl_->find_device(id, nullptr); }
+
 Device Client::get_device(const std::string& id) {
-  if (auto d = find_device(id)) return *d;
+  std::string gone;
+  if (auto d = impl_->find_device(id, &gone)) return *d;
+  if (!gone.empty()) throw Error(ErrorCode::not_found, gone, 410);
   throw Error(ErrorCode::not_found, "no device '" + id + "' at rs-discoveryd (" +
                                         impl_->endpoint.to_string() + ")",
               404);

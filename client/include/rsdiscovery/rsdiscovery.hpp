@@ -469,12 +469,12 @@ class RSDISCOVERY_API Client {
   // is asked again for whole documents. An empty `fields` is list(filter).
   DeviceList list(const DeviceFilter& filter, const std::vector<std::string>& fields);
   // One device by its id, serial or topic-root (the daemon's lookup). get_device throws
-  // Error(not_found) when absent; both throw Error(not_found) with http_status() 409
-  // when a serial or topic-root names several devices.
+  // Error(not_found) when absent: http_status() 410 for a camera that was here and left
+  // (the message says why and when: see device_history()), 404 for one never seen.
+  // Both throw Error(not_found) with http_status() 409 when a serial or topic-root
+  // names several devices.
   Device get_device(const std::string& id);
-  // Nothing when absent; an Error not_found with http_status() 410 for a camera that
-  // was here and left (its message says why and when: see device_history()).
-  std::optional<Device> find_device(const std::string& id);
+  std::optional<Device> find_device(const std::string& id);  // nothing when absent, gone or never seen
   // Camera Discovery of a network camera (id, serial or topic-root): its streams with
   // their profiles and options, device options, extrinsics, asked of its realdds
   // server by the daemon without opening the camera. The first time for a camera it
