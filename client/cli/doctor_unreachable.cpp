@@ -161,7 +161,8 @@ std::string unreachable_hint(const rsdiscovery::Error& e, const rsdiscovery::End
         out += "; its group " + group_name(closed->st_gid) + " grants much more than this socket: do not join it";
       out += "; give the socket a group of its own: the packaged service's socket unit does "
              "(SocketGroup=rs-discoveryd, then 'sudo usermod -aG rs-discoveryd " +
-             me + "'), as does a systemd socket unit of your own with SocketGroup=";
+             me + "'), as does a systemd socket unit of your own with SocketGroup=, and a daemon "
+             "started by hand takes --socket-group GROUP (config key \"socket-group\")";
       if (!use_http.empty()) out += "; or " + use_http;
     }
     return out;

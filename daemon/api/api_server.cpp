@@ -125,7 +125,7 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
         unix_fd = opts.inherited_unix_fd;  // systemd owns the file; we never remove it
         where = "unix fd " + std::to_string(unix_fd);
       } else {
-        unix_fd = listen_unix(opts.unix_socket);
+        unix_fd = listen_unix(opts.unix_socket, opts.unix_socket_gid);
         socket_path = opts.unix_socket;
         lstat(socket_path.c_str(), &socket_stat);
         where = "unix socket " + socket_path;

@@ -14,6 +14,7 @@ namespace rsd::api {
 
 struct ApiOptions {
   std::string unix_socket;  // path; empty: no Unix socket
+  int unix_socket_gid = -1;  // the group given to the socket the daemon makes; -1: its own
   std::string http_host;    // empty: no HTTP
   int http_port = 0;
   // The configuration named http_host:http_port (or "off"), rather than leaving the

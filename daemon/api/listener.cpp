@@ -48,7 +48,7 @@ void prepare_unix_socket_path(const std::string& path) {
     throw std::runtime_error("cannot remove stale unix socket '" + path + "': " + std::strerror(errno));
 }
 
-int listen_unix(const std::string& path) {
+int listen_unix(const std::string& path, int gid) {
   prepare_unix_socket_path(path);
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
@@ -67,6 +67,15 @@ int listen_unix(const std::string& path) {
     throw std::runtime_error("cannot listen on unix socket '" + path + "': " + std::strerror(e));
   }
   chmod(path.c_str(), 0660);
+  // Before anyone is told the socket is there (READY=1 comes later): until then its
+  // group is the daemon's, which only keeps the new group's members out a moment.
+  if (gid >= 0 && chown(path.c_str(), static_cast<uid_t>(-1), static_cast<gid_t>(gid)) != 0) {
+    const int e = errno;
+    close(fd);
+    unlink(path.c_str());
+    throw std::runtime_error("cannot give unix socket '" + path + "' the group " + std::to_string(gid) + ": " +
+                             std::strerror(e) + " (a daemon not run as root must be a member of it)");
+  }
   return fd;
 }
 

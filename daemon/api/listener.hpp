@@ -14,9 +14,9 @@ namespace rsd::api {
 // delete a file we don't understand.
 void prepare_unix_socket_path(const std::string& path);
 
-// A listening Unix socket at `path`, mode 0660 from the start. Throws
-// std::runtime_error with a message fit for the user.
-int listen_unix(const std::string& path);
+// A listening Unix socket at `path`, mode 0660 from the start, of group `gid` unless
+// it is -1. Throws std::runtime_error with a message fit for the user.
+int listen_unix(const std::string& path, int gid = -1);
 
 // A listening TCP socket on host:port (port 0: any free one; the host may be a
 // name, an IPv4 or an IPv6 address, with or without brackets). SO_REUSEADDR

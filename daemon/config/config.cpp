@@ -167,6 +167,9 @@ Options:
       --socket PATH|off      Unix socket for the API (default: $RUNTIME_DIRECTORY/api.sock,
                              else /run/rs-discoveryd/api.sock for root,
                              else $XDG_RUNTIME_DIR/rs-discoveryd.sock)
+      --socket-group GROUP   give the Unix socket this group (mode 0660), so that joining
+                             GROUP grants the socket and nothing more (default: the
+                             daemon's own group; under systemd: the socket unit's)
       --http HOST:PORT|off   HTTP listener for the API (default: 127.0.0.1:8035)
       --allowed-host NAME    a Host name HTTP answers for besides localhost and its own
                              address (repeat; '*': any). Others get 421, which keeps web
@@ -217,13 +220,13 @@ Options:
   -V, --version              print the version and exit
   -h, --help                 print this help and exit
 
-Config file keys: domains, socket, http, usb, share-usb, participant-name, log-level,
-cyclonedds-config, max-devices-per-participant, max-devices-per-domain,
+Config file keys: domains, socket, socket-group, http, usb, share-usb, participant-name,
+log-level, cyclonedds-config, max-devices-per-participant, max-devices-per-domain,
 max-writers-per-participant, max-writers-per-domain, interfaces and
-exclude-interfaces (lists), describe-timeout, describe-eagerly (true, false or a list of domains), allowed-hosts
-(a list), max-clients; otherwise the same meanings as the flags. SIGHUP applies
-domains, usb, log-level, interfaces and exclude-interfaces; the other keys take
-effect on restart.
+exclude-interfaces (lists), describe-timeout, describe-eagerly (true, false or a list of
+domains), allowed-hosts (a list), max-clients, expect (a list); otherwise the same
+meanings as the flags. SIGHUP applies domains, usb, log-level, interfaces,
+exclude-interfaces and expect; the other keys take effect on restart.
 
 API: GET /v1/devices, /v1/devices/{id}, /v1/devices/{id}/description,
 /v1/events (Server-Sent Events),

@@ -20,6 +20,10 @@ inline constexpr int kMaxDomain = 232;  // RTPS port mapping ends there
 struct Config {
   std::vector<int> domains{0};
   std::string socket_path;  // "" : no Unix socket
+  // The group the Unix socket is given (mode 0660), so its users join a group that
+  // grants the socket and nothing else; "": the daemon's own. -1 with it.
+  std::string socket_group;
+  int socket_gid = -1;
   std::string http_host = "127.0.0.1";  // "" : no HTTP
   int http_port = kDefaultHttpPort;
   // The file or a flag named the HTTP address (or turned it off). Under socket

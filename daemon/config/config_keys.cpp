@@ -3,10 +3,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include <grp.h>
+
 #include <algorithm>
 #include <charconv>
 #include <iterator>
 #include <set>
+#include <vector>
 
 namespace rsd {
 namespace {
@@ -61,6 +64,20 @@ std::string parse_interface_pattern(const std::string& text, const std::string& 
   if (bad)
     throw ConfigError(where + ": expected a network interface name or pattern (eth1, enp*), not '" + text + "'");
   return text;
+}
+
+// Resolved now, so that a group that does not exist is a configuration error at
+// start (exit 2), not a socket left to the daemon's own group.
+void parse_socket_group(const std::string& text, Config& config, const std::string& where) {
+  if (text.empty()) throw ConfigError(where + ": socket group is empty");
+  std::vector<char> buf(16384);
+  group g{};
+  group* found = nullptr;
+  const int rc = getgrnam_r(text.c_str(), &g, buf.data(), buf.size(), &found);
+  if (rc != 0 || !found)
+    throw ConfigError(where + ": no group '" + text + "' on this host (make it with 'groupadd " + text + "')");
+  config.socket_group = text;
+  config.socket_gid = static_cast<int>(found->gr_gid);
 }
 
 void parse_socket(const std::string& text, Config& config, const std::string& where) {
@@ -218,6 +235,10 @@ const ConfigKey kKeys[] = {
      [](const json& v, Config& c, const std::string& at) { parse_socket(want_string(v, at), c, at); },
      [](const std::string& text, Config& c, bool, const std::string& where) { parse_socket(text, c, where); },
      copy<&Config::socket_path>, same<&Config::socket_path>},
+    {"socket-group", "socket-group", '\0', true, Reload::restart,
+     [](const json& v, Config& c, const std::string& at) { parse_socket_group(want_string(v, at), c, at); },
+     [](const std::string& text, Config& c, bool, const std::string& where) { parse_socket_group(text, c, where); },
+     copy<&Config::socket_group, &Config::socket_gid>, same<&Config::socket_group>},
     {"http", "http", '\0', true, Reload::restart,
      [](const json& v, Config& c, const std::string& at) { parse_http(want_string(v, at), c, at); },
      [](const std::string& text, Config& c, bool, const std::string& where) { parse_http(text, c, where); },

@@ -32,6 +32,7 @@ DaemonOptions daemon_options(const Config& config, std::string_view cyclone_uri)
 
   auto& api = out.api;
   api.unix_socket = config.socket_path;
+  api.unix_socket_gid = config.socket_gid;
   api.http_host = config.http_host;
   api.http_port = config.http_port;
   api.http_configured = config.http_set;

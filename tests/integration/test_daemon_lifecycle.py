@@ -1,9 +1,12 @@
 """The daemon as a process: command line, configuration errors, logs, signals."""
+import grp
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
+import tempfile
 import time
 
 import pytest
@@ -33,6 +36,7 @@ def test_help_and_version():
     (["--bogus"], "unknown argument '--bogus'"),
     (["--config", "/nonexistent/rs-discoveryd.json"], "cannot read config file /nonexistent/rs-discoveryd.json"),
     (["--socket", "off", "--http", "off"], "both the Unix socket and HTTP are off"),
+    (["--socket-group", "rsd-no-such-group"], "no group 'rsd-no-such-group' on this host"),
 ])
 def test_bad_usage_is_exit_2_with_a_clear_message(args, message):
     r = run(*args)
@@ -120,6 +124,29 @@ def test_stale_socket_from_a_crash_is_replaced(free_domain, daemon):
     second = daemon([free_domain], socket=first.socket)
     assert second.healthy()
     assert oct(os.stat(first.socket).st_mode & 0o777) == "0o660"
+
+
+def test_socket_group_grants_its_members_the_socket(free_domain, daemon):
+    # The group a user joins for the socket, instead of the daemon's own (root's, when
+    # it runs by hand): Debian's nogroup, which grants nothing else. In a directory
+    # anybody may pass through, as /run/rs-discoveryd is.
+    run_dir = tempfile.mkdtemp(prefix="rsd-group-")
+    os.chmod(run_dir, 0o755)
+    try:
+        d = daemon([free_domain], socket=os.path.join(run_dir, "api.sock"), extra=["--socket-group", "nogroup"])
+        st = os.stat(d.socket)
+        assert st.st_gid == grp.getgrnam("nogroup").gr_gid and oct(st.st_mode & 0o777) == "0o660"
+
+        def healthz_as_nobody(groups):  # uid nobody, primary group daemon, and `groups`
+            return subprocess.run(["setpriv", "--reuid=nobody", "--regid=daemon", f"--groups={groups}", "curl", "-s",
+                                   "-o", "/dev/null", "-w", "%{http_code}", "--unix-socket", d.socket,
+                                   "http://localhost/healthz"], capture_output=True, text=True, timeout=30)
+
+        assert healthz_as_nobody("nogroup").stdout == "200"
+        r = healthz_as_nobody("daemon")
+        assert r.stdout != "200" and r.returncode != 0, "a user outside the group must not reach the socket"
+    finally:
+        shutil.rmtree(run_dir, ignore_errors=True)
 
 
 def test_default_socket_directory_is_made(free_domain, daemon, tmp_path):

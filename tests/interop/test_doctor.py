@@ -281,6 +281,7 @@ def test_a_root_owned_socket_is_never_a_group_to_join(daemon, free_domain):
         assert "join group root" not in text and "usermod -aG root" not in text, text
         assert "its group root grants much more than this socket: do not join it" in text, text
         assert "give the socket a group of its own" in text and "SocketGroup=" in text, text
+        assert "--socket-group GROUP" in text, text  # the way for a daemon run by hand
         assert f"'rs-discover --endpoint http://127.0.0.1:{d.port} doctor' (it answers there)" in text, text
         assert "127.0.0.1:8035" not in text or d.port == 8035, text
     finally:

@@ -38,6 +38,7 @@ const std::map<std::string, Sample>& samples() {
   static const std::map<std::string, Sample> s{
       {"domains", {"[1, 2]", {"-d", "3", "--domain=4"}}},
       {"socket", {"\"/tmp/from-file.sock\"", {"--socket", "/tmp/from-flag.sock"}}},
+      {"socket-group", {"\"nogroup\"", {"--socket-group", "daemon"}}},  // groups every Debian has
       {"http", {"\"127.0.0.1:9001\"", {"--http", "[::1]:9002"}}},
       {"allowed-hosts", {"[\"a.example\"]", {"--allowed-host", "b.example", "--allowed-host", "c.example"}}},
       {"max-clients", {"200", {"--max-clients", "64"}}},
@@ -54,6 +55,7 @@ const std::map<std::string, Sample>& samples() {
       {"max-writers-per-domain", {"5000", {"--max-writers-per-domain", "6"}}},
       {"describe-timeout", {"5", {"--describe-timeout", "9"}}},
       {"describe-eagerly", {"[0, 5]", {"--describe-eagerly", "all"}}},
+      {"expect", {"[\"front=111\"]", {"--expect", "wrist=222", "--expect", "realsense/D555_333"}}},
   };
   return s;
 }
@@ -92,7 +94,7 @@ TEST(ConfigKeys, EverySampleIsAKeyAndEveryKeyHasASample) {
 TEST(ConfigKeys, RestartOnlyIsWhatReloadWarnsAbout) {
   // What Service::reload says "takes effect on restart" for; the rest it applies live.
   const std::vector<std::string> restart_only{
-      "socket", "http", "allowed-hosts", "max-clients", "share-usb", "participant-name", "cyclonedds-config",
+      "socket", "socket-group", "http", "allowed-hosts", "max-clients", "share-usb", "participant-name", "cyclonedds-config",
       "max-devices-per-participant", "max-devices-per-domain", "max-writers-per-participant",
       "max-writers-per-domain", "describe-timeout", "describe-eagerly"};
   const Config running;
