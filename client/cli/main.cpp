@@ -11,7 +11,7 @@ namespace {
 
 using namespace rsdiscover;
 
-const Command* const kCommands[] = {&kListCommand, &kGetCommand, &kDescribeCommand, &kWatchCommand,
+const Command* const kCommands[] = {&kListCommand, &kGetCommand, &kDescribeCommand, &kClientsCommand, &kWatchCommand,
                                     &kDomainsCommand, &kParticipantsCommand, &kDoctorCommand, &kHealthCommand};
 
 void usage(std::FILE* out) {

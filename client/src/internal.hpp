@@ -36,6 +36,7 @@ Description description_from_json(const nlohmann::json& doc);  // throws Error(m
 DomainStatus domain_from_json(const nlohmann::json& doc);
 Health health_from_json(const nlohmann::json& doc);
 Participant participant_from_json(const nlohmann::json& doc);
+CameraClients clients_from_json(const nlohmann::json& doc);
 
 // The text of each element of the array that member `key` of the JSON object
 // `text` holds, as it stands in `text`; nothing when there is no such array.

@@ -19,6 +19,10 @@ from conftest import TESTS_DIR, EventStream, wait_for
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "integration"))
 from api_util import validate_response  # noqa: E402
 
+CLI = os.path.join(os.environ["RSD_BUILD_DIR"], "client", "rs-discover")
+sys.path.insert(0, os.path.join(os.environ["RSD_SOURCE_DIR"], "client", "python", "src"))
+import rsdiscovery  # noqa: E402  (the package as shipped)
+
 LEASE = 3.0  # realdds announces a 3 s lease (realdds-wire.md)
 
 
@@ -121,6 +125,19 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     assert yid in [dev["id"] for dev in d.devices("?in-use=false")]
     assert xid not in [dev["id"] for dev in d.devices("?in-use=false")]
 
+    # The clients see it: rs-discover clients (table, --json), list's marker, Python.
+    cli = [CLI, "--endpoint", "unix:" + d.socket]
+    table = subprocess.run(cli + ["clients", x["serial"]], capture_output=True, text=True, timeout=10)
+    assert table.returncode == 0, table.stderr
+    assert "my-robot-app" in table.stdout and entry["guid"] in table.stdout and "streaming" not in table.stdout
+    as_json = subprocess.run(cli + ["clients", "--json", xid], capture_output=True, text=True, timeout=10)
+    assert json.loads(as_json.stdout) == clients(d, xid)
+    listed = subprocess.run(cli + ["list"], capture_output=True, text=True, timeout=10).stdout
+    assert [ln for ln in listed.splitlines() if x["serial"] in ln and "in use" in ln]
+    assert not [ln for ln in listed.splitlines() if y["serial"] in ln and "in use" in ln]
+    py = rsdiscovery.Client("unix:" + d.socket).clients(xid)
+    assert [c.name for c in py.clients] == ["my-robot-app"] and py.clients[0].streams == () and py.streams == {}
+
     # A second client, streaming Depth.
     b = Client(free_domain, x, "depth-viewer", streams=["Depth"])
     seen_b = timed(lambda: len(clients(d, xid)["clients"]) == 2, "the streaming client's endpoints")
@@ -132,6 +149,12 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     by_name = {c["name"]: c for c in clients(d, xid)["clients"]}
     assert by_name["depth-viewer"]["streams"] == ["Depth"] and by_name["my-robot-app"]["streams"] == []
     assert device(d, xid)["in-use"] == {"clients": 2, "streaming": ["Depth"]}
+    table = subprocess.run(cli + ["clients", xid], capture_output=True, text=True, timeout=10).stdout
+    assert "depth-viewer" in table and "streaming: Depth (1 reader)" in table
+    listed = subprocess.run(cli + ["list"], capture_output=True, text=True, timeout=10).stdout
+    assert [ln for ln in listed.splitlines() if x["serial"] in ln and "in use: Depth" in ln]
+    py = rsdiscovery.Client("unix:" + d.socket).clients(xid)
+    assert {c.name: c.streams for c in py.clients}["depth-viewer"] == ("Depth",) and py.streams == {"Depth": 1}
     assert clients(d, yid)["clients"] == []
 
     # A clean exit: gone within 1 s. SIGKILL: gone at its lease.
@@ -157,3 +180,11 @@ def test_clients_of_a_usb_or_unknown_device(free_domain, daemon):
     assert status == 404, body
     status, _, body = d.request("/v1/devices?in-use=maybe")
     assert status == 400, body
+    r = subprocess.run([CLI, "--endpoint", "unix:" + d.socket, "clients", "nobody"], capture_output=True, text=True,
+                       timeout=10)
+    assert r.returncode == 1 and "nobody" in r.stderr, (r.returncode, r.stderr)
+    try:
+        rsdiscovery.Client("unix:" + d.socket).clients("nobody")
+        raise AssertionError("no NotFound")
+    except rsdiscovery.NotFound:
+        pass

@@ -14,7 +14,7 @@ from typing import Any, Callable, Dict, Iterator, List, Optional, Tuple
 from ._endpoint import Endpoint, _connect_error, _endpoint, _UnixConnection
 from ._errors import (DaemonNotRunning, HTTPError, MalformedReply, NotFound, PermissionDenied, RSDiscoveryError,
                       VersionMismatch)
-from ._model import Device, DomainStatus, Health, Participant
+from ._model import Device, DeviceClients, DomainStatus, Health, Participant
 from ._query import _COMPLETE_POLL, Domains, _check_filters, _check_seconds, _complete, _domains, _query
 from ._watch import Event, Watcher, _generate
 
@@ -261,6 +261,27 @@ class Client:
         if not isinstance(doms, list):
             raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: no list of domains")
         return [DomainStatus.from_json(d) for d in doms]
+
+    def clients(self, device: "Device | str") -> DeviceClients:
+        """Who uses a network camera (``GET /v1/devices/{id}/clients``), given as a
+        :class:`Device` or its id, serial or topic-root: its clients (DDS participants
+        other than its server on its topics, with the streams each reads) and the streams
+        read now. Raises :class:`NotFound` for no such camera or a USB one (the daemon
+        cannot see processes: ``rs-discover clients`` looks for them)."""
+        key = device.id if isinstance(device, Device) else device
+        if not isinstance(key, str) or not key:
+            raise ValueError(f"device must be a Device or a device's id, serial or topic-root, not {device!r}")
+        path = "/v1/devices/" + urllib.parse.quote(key, safe="") + "/clients"
+        status, body = self._request(path)
+        if status == 404:
+            try:
+                detail = json.loads(body).get("error", "")
+            except (ValueError, AttributeError):
+                detail = ""
+            raise NotFound(detail or f"no device with id {key!r}")
+        if status != 200:
+            raise self._status_error(path, status, body)
+        return DeviceClients.from_json(self._json_object(path, body))
 
     def participants(self, domain: Domains = None, state: Optional[str] = "alive") -> List[Participant]:
         """The DDS participants the daemon hears (``/v1/participants``), as
