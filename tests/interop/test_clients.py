@@ -188,3 +188,52 @@ def test_clients_of_a_usb_or_unknown_device(free_domain, daemon):
         raise AssertionError("no NotFound")
     except rsdiscovery.NotFound:
         pass
+
+
+LIBREALSENSE_STREAMING = """
+import json, sys
+import pyrealsense2 as rs
+import rsdiscovery.librealsense
+ctx, dev = rsdiscovery.librealsense.device(sys.argv[1], timeout=10)
+pipe = rs.pipeline(ctx)
+cfg = rs.config()
+cfg.enable_device(sys.argv[1])
+cfg.enable_stream(rs.stream.depth)
+pipe.start(cfg)
+pipe.wait_for_frames(5000)
+print(json.dumps({"streaming": True}), flush=True)
+sys.stdin.readline()
+pipe.stop()
+"""
+
+
+def test_librealsense_streaming_through_a_pipeline_is_a_client(free_domain, daemon, realdds_server):
+    d = daemon([free_domain])
+    server = realdds_server(free_domain, [], name="d555-server")
+    x = d555("555999")
+    server.command(cmd="add", info=x, spec="d555")
+    xid = f"dds-{free_domain}-" + x["topic-root"].replace("/", ".")
+    wait_for(lambda: xid in d.device_ids(), 20, what="the camera")
+    env = dict(os.environ, PYTHONPATH=os.path.join(os.environ["RSD_SOURCE_DIR"], "client", "python", "src"),
+               RS_DISCOVERY_ENDPOINT="unix:" + d.socket)
+    proc = subprocess.Popen([sys.executable, "-c", LIBREALSENSE_STREAMING, x["serial"]], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        while not (line := proc.stdout.readline()).startswith("{"):
+            assert line, "the librealsense program ended"
+        assert json.loads(line) == {"streaming": True}
+        wait_for(lambda: clients(d, xid)["streams"] == {"Depth": 1}, what="librealsense streaming Depth")
+        found = clients(d, xid)["clients"]
+        assert len(found) == 1 and found[0]["streams"] == ["Depth"] and found[0]["vendor"] == "fast-dds"
+        assert device(d, xid)["in-use"] == {"clients": 1, "streaming": ["Depth"]}
+        proc.stdin.write("quit\n")
+        proc.stdin.flush()
+        t0 = time.monotonic()
+        assert proc.wait(20) == 0
+        wait_for(lambda: clients(d, xid)["clients"] == [], timeout=LEASE + 10, what="librealsense gone")
+        print(f"\nlibrealsense gone {(time.monotonic() - t0) * 1000:.0f} ms after its pipeline stopped")
+        assert "in-use" not in device(d, xid)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
