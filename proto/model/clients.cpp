@@ -24,17 +24,6 @@ constexpr const char* since = "since";
 constexpr const char* kClient = "a client entry";
 constexpr const char* kClients = "a device's clients";
 
-std::vector<std::string> texts(const nlohmann::json& doc, const char* name, const char* what) {
-  const auto& v = read_json::member(doc, name, what);
-  if (!v.is_array()) throw MalformedDocument(std::string(what) + ": \"" + name + "\" is not an array");
-  std::vector<std::string> out;
-  for (const auto& item : v) {
-    if (!item.is_string()) throw MalformedDocument(std::string(what) + ": \"" + name + "\" holds a non-string");
-    out.push_back(item.get<std::string>());
-  }
-  return out;
-}
-
 Client client_from_json(const nlohmann::json& doc) {
   using namespace read_json;
   want_object(doc, kClient);
@@ -46,10 +35,7 @@ Client client_from_json(const nlohmann::json& doc) {
   c.addresses = texts(doc, ckey::addresses, kClient);
   if (doc.contains(ckey::host)) c.host = text(doc, ckey::host, kClient);
   if (doc.contains(ckey::process)) c.process = text(doc, ckey::process, kClient);
-  if (auto it = doc.find(ckey::pid); it != doc.end()) {
-    if (!it->is_number_integer()) throw MalformedDocument("a client entry's \"pid\" is not a number");
-    c.pid = it->get<std::int64_t>();
-  }
+  c.pid = pid(doc, ckey::pid, kClient);
   c.since = text(doc, ckey::since, kClient);
   c.streams = texts(doc, ckey::streams, kClient);
   return c;
