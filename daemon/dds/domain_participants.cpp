@@ -222,7 +222,9 @@ void DomainSession::take_endpoint_changes(dds_entity_t reader, bool readers) {
 
 void DomainSession::refuse_endpoint(EndpointRefusal r, const std::string& participant, std::size_t topic_length) {
   std::uint64_t suppressed = 0;
-  if (!g_endpoint_log.allow(std::to_string(options_.domain) + "/" + participant + "/" + to_string(r), suppressed))
+  // Keyed by domain and reason, not by peer: a flood from ever new GUIDs would grow
+  // the limiter by a slot each.
+  if (!g_endpoint_log.allow(std::to_string(options_.domain) + "/" + to_string(r), suppressed))
     return;
   log::warning(log::domain_prefix(options_.domain) + "endpoint of " + participant + " refused: " + to_string(r) +
                " (topic name of " + std::to_string(topic_length) + " bytes; " +

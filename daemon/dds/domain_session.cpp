@@ -159,6 +159,9 @@ void DomainSession::stop() {
   participant_guid_.clear();
   book_.participant_made();  // the next participant hears everyone anew
   participants_.participant_rebuilt();
+  // Kept devices lose their clients with the endpoints forgotten: a client gone
+  // meanwhile never comes back to say so; those still there are heard again.
+  update_in_use(book_.topic_roots());
 }
 
 void DomainSession::rebuild() {

@@ -26,7 +26,7 @@ struct EndpointLimits {
 };
 
 enum class EndpointRefusal { none, participant_limit, domain_limit, topic_too_long, topic_limit };
-// The reason as /v1/domains and the log spell it ("participant-endpoint-limit" ...).
+// The reason as the log spells it ("participant-endpoint-limit" ...).
 const char* to_string(EndpointRefusal r);
 
 // How a realdds client names a camera's topics (librealsense's realdds sources,
