@@ -137,6 +137,8 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     assert not [ln for ln in listed.splitlines() if y["serial"] in ln and "in use" in ln]
     py = rsdiscovery.Client("unix:" + d.socket).clients(xid)
     assert [c.name for c in py.clients] == ["my-robot-app"] and py.clients[0].streams == () and py.streams == {}
+    assert [dev.id for dev in rsdiscovery.Client("unix:" + d.socket).list_devices(in_use=True)] == [xid]
+    assert xid not in [dev.id for dev in rsdiscovery.list_devices(endpoint="unix:" + d.socket, in_use=False)]
 
     # A second client, streaming Depth.
     b = Client(free_domain, x, "depth-viewer", streams=["Depth"])

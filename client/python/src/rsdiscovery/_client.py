@@ -169,15 +169,18 @@ class Client:
 
     def list_devices(self, domain: Domains = None, product_line: Optional[str] = None,
                      source: Optional[str] = None, *, serial: Optional[str] = None, name: Optional[str] = None,
-                     address: Optional[str] = None, host: Optional[str] = None) -> List[Device]:
+                     address: Optional[str] = None, host: Optional[str] = None,
+                     in_use: Optional[bool] = None) -> List[Device]:
         """The devices the daemon knows now, as :class:`Device`, optionally filtered: DDS
         ``domain`` (one id, or several: ``domain=[1, 2]``, as ``rs-discover list -d 1 -d 2``),
         product line, ``dds``/``usb``/``remote-usb``, serial, a part of the name, an address of
         the camera's server (or of the host sharing it), ``host``: the USB cameras the daemon
-        on the host of this name shares (remote-usb, :attr:`Device.host`); the daemon
-        filters, values in any case. Waits for the complete table first
+        on the host of this name shares (remote-usb, :attr:`Device.host`), ``in_use``: network
+        cameras with a client (True) or every other device (False, see :meth:`clients`); the
+        daemon filters, values in any case. Waits for the complete table first
         (``complete_timeout``)."""
-        return self._list((domain, product_line, source, serial, name, address, host), self._complete_deadline())
+        return self._list((domain, product_line, source, serial, name, address, host, in_use),
+                          self._complete_deadline())
 
     def _list(self, filters: Tuple[Any, ...], deadline: float) -> List[Device]:
         path = "/v1/devices" + _query(*filters)
@@ -372,12 +375,14 @@ class Client:
 def list_devices(domain: Domains = None, product_line: Optional[str] = None, source: Optional[str] = None,
                  endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0, *,
                  serial: Optional[str] = None, name: Optional[str] = None,
-                 address: Optional[str] = None, host: Optional[str] = None) -> List[Device]:
+                 address: Optional[str] = None, host: Optional[str] = None,
+                 in_use: Optional[bool] = None) -> List[Device]:
     """The devices the daemon knows now (see :meth:`Client.list_devices`; ``complete_timeout=0``
     does not wait for the daemon's first discovery)."""
     return Client(endpoint, complete_timeout=complete_timeout).list_devices(domain, product_line, source,
                                                                             serial=serial, name=name,
-                                                                            address=address, host=host)
+                                                                            address=address, host=host,
+                                                                            in_use=in_use)
 
 
 def get_device(device_id: str, endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0) -> Device:
