@@ -1,10 +1,28 @@
 // rs-discover list: the devices the daemon knows now, as a table or JSON.
 #include "common.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <chrono>
 
 namespace rsdiscover {
 namespace {
+
+// ", in use" (", in use: Depth, Color" while streamed): a network camera with a client
+// (its "in-use"; `rs-discover clients ID` says who). Parsed only when it is there.
+std::string in_use_marker(const rsdiscovery::Device& d) {
+  if (d.json.find("\"in-use\"") == std::string::npos) return "";
+  const auto doc = nlohmann::json::parse(d.json, nullptr, false);
+  const auto it = doc.is_object() ? doc.find("in-use") : doc.end();
+  if (it == doc.end() || !it->is_object()) return "";
+  std::string out = ", in use";
+  if (auto s = it->find("streaming"); s != it->end() && s->is_array() && !s->empty()) {
+    out += ":";
+    for (std::size_t i = 0; i < s->size(); ++i)
+      if ((*s)[i].is_string()) out += (i ? ", " : " ") + (*s)[i].get<std::string>();
+  }
+  return out;
+}
 
 int run(const ParsedArgs& args) {
   if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
@@ -58,7 +76,7 @@ int run(const ParsedArgs& args) {
       fields = {"id"};  // --host is the daemon's filter too (DeviceFilter::host)
     } else if (!args.has("json") && !format) {
       fields = {"name", "serial", "source", "sources", "domain", "usb", "host", "server.addresses", "first-seen",
-                "recovery", "warnings"};
+                "recovery", "warnings", "in-use"};
       if (args.has("wide")) fields.insert(fields.end(), {"product-id", "fw-version"});
     }
     auto list = client.list(filter, fields);  // waits for the complete table, unless told not to
@@ -93,9 +111,10 @@ int run(const ParsedArgs& args) {
   if (wide) headers.insert(headers.end(), {"PRODUCT-ID", "FW", "ID"});
   Table table(headers);
   for (const auto& d : devices) {
-    std::string state = device_state(d);
+    const std::string state = device_state(d);
     std::vector<std::string> cells = {d.name.empty() ? "-" : d.name, d.serial.empty() ? "-" : d.serial,
-                                      device_sources(d), device_location(d), device_addresses(d), state,
+                                      device_sources(d), device_location(d), device_addresses(d),
+                                      state + in_use_marker(d),
                                       age_since(d.first_seen)};
     if (wide)
       cells.insert(cells.end(), {d.product_id.empty() ? "-" : d.product_id,

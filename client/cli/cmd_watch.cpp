@@ -39,6 +39,25 @@ std::string clock_now() {
   return buf;
 }
 
+// A network camera's clients coming and going, from its "in-use" before and now
+// (null: no client): "a client came (2 clients, streaming Depth)", "its last client left".
+std::string in_use_change(const nlohmann::json& old, const nlohmann::json& now) {
+  const auto count = [](const nlohmann::json& u) -> std::uint64_t {
+    const auto it = u.is_object() ? u.find("clients") : u.end();
+    return it != u.end() && it->is_number_unsigned() ? it->get<std::uint64_t>() : 0;
+  };
+  const std::uint64_t was = count(old), is = count(now);
+  std::string out;
+  if (is > was) out = is - was == 1 ? "a client came" : std::to_string(is - was) + " clients came";
+  else if (is < was) out = is == 0 ? "its last client left" : was - is == 1 ? "a client left" : std::to_string(was - is) + " clients left";
+  else out = "its streams changed";
+  if (is == 0) return out;
+  const auto streaming = now.find("streaming");
+  const std::string streams = streaming != now.end() ? value_text(*streaming) : "";
+  return out + " (" + std::to_string(is) + (is == 1 ? " client" : " clients") +
+         (streams.empty() ? ", not streaming" : ", streaming " + streams) + ")";
+}
+
 // What a `changed` event changed, in words, from the device as last seen:
 // "fw-version 5.16.0.1 -> 5.16.1.0, now served by server-b (10.0.0.2), entered
 // recovery". Nested fields by their dotted names, lists joined by commas; the times
@@ -85,6 +104,8 @@ std::string changes(const std::string& before_json, const std::string& after_jso
       if (by.empty()) by = value_text(get(value, "participant-guid"));
       const std::string at = value_text(get(value, "addresses"));
       parts.push_back("now served by " + by + (at.empty() ? "" : " (" + at + ")"));
+    } else if (key == "in-use") {
+      parts.push_back(in_use_change(old, value));
     } else if (key == "warnings" && value.is_array()) {
       for (const auto& w : value)
         if (!old.is_array() || std::find(old.begin(), old.end(), w) == old.end()) parts.push_back("warning: " + value_text(w));
@@ -98,6 +119,7 @@ std::string changes(const std::string& before_json, const std::string& after_jso
   for (const auto& [key, value] : before.items())
     if (!after.contains(key) && key != "first-seen" && key != "last-seen") {
       if (key == "recovery") parts.push_back("left recovery mode");
+      else if (key == "in-use") parts.push_back(in_use_change(value, none));
       else fields("." + key, value, none);
     }
   return join(parts, ", ");

@@ -197,6 +197,7 @@ class Table {
 extern const Command kListCommand;
 extern const Command kGetCommand;
 extern const Command kDescribeCommand;
+extern const Command kClientsCommand;
 extern const Command kWatchCommand;
 extern const Command kDomainsCommand;
 extern const Command kParticipantsCommand;

@@ -11,9 +11,9 @@ namespace {
 
 using namespace rsdiscover;
 
-const Command* const kCommands[] = {&kListCommand, &kGetCommand, &kDescribeCommand, &kWatchCommand, &kWaitCommand,
-                                    &kDomainsCommand, &kParticipantsCommand, &kDoctorCommand, &kHealthCommand,
-                                    &kHistoryCommand};
+const Command* const kCommands[] = {&kListCommand,    &kGetCommand,          &kDescribeCommand, &kClientsCommand,
+                                    &kWatchCommand,   &kWaitCommand,         &kDomainsCommand,  &kParticipantsCommand,
+                                    &kDoctorCommand,  &kHealthCommand,       &kHistoryCommand};
 
 void usage(std::FILE* out) {
   std::fputs(

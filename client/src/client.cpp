@@ -239,6 +239,22 @@ std::vector<DomainStatus> Client::domains() {
   return out;
 }
 
+CameraClients Client::clients(const std::string& id) {
+  const std::string path = "/v1/devices/" + detail::percent_encode(id) + "/clients";
+  detail::Reply reply;
+  {
+    std::lock_guard lock(impl_->mutex);
+    reply = impl_->transport.get(path);
+  }
+  auto body = json::parse(reply.body, nullptr, false);
+  // A 404 with the daemon's error is about the camera (none, or a USB one); one
+  // without is an older daemon, which get_json says.
+  if (reply.status == 404 && body.is_object() && body.contains("error") && body["error"].is_string())
+    throw Error(ErrorCode::not_found, body["error"].get<std::string>(), 404);
+  if (reply.status != 200 || body.is_discarded()) return detail::clients_from_json(impl_->get_json(path));
+  return detail::clients_from_json(body);
+}
+
 std::vector<Participant> Client::participants(std::optional<int> domain) {
   json reply = impl_->get_json(domain ? "/v1/participants?domain=" + std::to_string(*domain) : "/v1/participants");
   auto list = reply.find("participants");

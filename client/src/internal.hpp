@@ -37,6 +37,7 @@ DomainStatus domain_from_json(const nlohmann::json& doc);
 Health health_from_json(const nlohmann::json& doc);
 Expected expected_from_json(const nlohmann::json& doc);  // throws Error(malformed_reply)
 Participant participant_from_json(const nlohmann::json& doc);
+CameraClients clients_from_json(const nlohmann::json& doc);
 
 // The text of each element of the array that member `key` of the JSON object
 // `text` holds, as it stands in `text`; nothing when there is no such array.

@@ -3,6 +3,7 @@
 
 #include <cstring>
 
+#include "rsd_model/clients.hpp"
 #include "rsd_model/description.hpp"
 #include "rsd_model/expected.hpp"
 #include "rsd_model/participant.hpp"
@@ -225,6 +226,18 @@ DomainStatus domain_from_json(const json& doc) {
   s.complete = m.complete;
   s.json = doc.dump();
   return s;
+}
+
+CameraClients clients_from_json(const json& doc) {
+  auto m = read_model(rsd::model::device_clients_from_json, doc);
+  CameraClients out;
+  for (auto& c : m.clients)
+    out.clients.push_back({std::move(c.guid), std::move(c.name), std::string(rsd::model::to_string(c.vendor)),
+                           std::move(c.addresses), c.host.value_or(""), c.process.value_or(""), std::move(c.since),
+                           std::move(c.streams)});
+  for (const auto& [name, readers] : m.streams) out.streams[name] = readers;
+  out.json = doc.dump();
+  return out;
 }
 
 Participant participant_from_json(const json& doc) {

@@ -89,7 +89,7 @@ std::optional<std::string> check_params(std::string_view route, const QueryParam
 std::optional<std::string> parse_device_filter(const QueryParams& params, DeviceFilter& out,
                                                const std::set<std::string>& also_allowed) {
   std::set<std::string> allowed = also_allowed;
-  allowed.insert({"domain", "product-line", "source", "serial", "name", "address", "host"});
+  allowed.insert({"domain", "product-line", "source", "serial", "name", "address", "host", "in-use"});
   if (auto err = check_params("this route", params, allowed)) return err;
   for (const auto& [key, value] : params) {
     if (key == "domain") {
@@ -103,6 +103,11 @@ std::optional<std::string> parse_device_filter(const QueryParams& params, Device
       auto source = model::parse_source(lower(value));
       if (!source) return "bad source '" + value + "': expected dds, usb or remote-usb";
       out.sources.insert(*source);
+    } else if (key == "in-use") {
+      const std::string v = lower(value);
+      if (v != "true" && v != "false") return "bad in-use '" + value + "': expected true or false";
+      if (out.in_use && *out.in_use != (v == "true")) return std::string("in-use given both true and false");
+      out.in_use = v == "true";
     } else if (key == "serial" || key == "name" || key == "address" || key == "host") {
       if (value.empty()) return "empty " + key;
       (key == "serial" ? out.serials : key == "name" ? out.names : key == "host" ? out.hosts : out.addresses)
@@ -155,6 +160,7 @@ bool DeviceFilter::matches(const model::Device& device) const {
       return false;
   }
   if (!hosts.empty() && (!device.host || !hosts.contains(lower(device.host->name)))) return false;
+  if (in_use && device.used() != *in_use) return false;
   return true;
 }
 

@@ -49,10 +49,11 @@ struct DeviceFilter {
   std::set<std::string> names;      // lower case, matched as a part of the name
   std::set<std::string> addresses;  // lower case, one of the server's (or remote-usb host's) addresses
   std::set<std::string> hosts;      // lower case, the name of a remote-usb camera's host
+  std::optional<bool> in_use;       // a DDS camera with a client (model::Device::used)
 
   bool empty() const {
     return domains.empty() && product_lines.empty() && sources.empty() && serials.empty() && names.empty() &&
-           addresses.empty() && hosts.empty();
+           addresses.empty() && hosts.empty() && !in_use;
   }
   // Reads the typed fields the table keeps (TableEntry::device): no parsing per request.
   bool matches(const model::Device& device) const;
@@ -64,7 +65,7 @@ struct DeviceFilter {
 std::optional<std::string> check_params(std::string_view route, const QueryParams& params,
                                         const std::set<std::string>& allowed);
 
-// Parses the filter keys (domain, product-line, source, serial, name, address, host); any other key must be
+// Parses the filter keys (domain, product-line, source, serial, name, address, host, in-use); any other key must be
 // in `also_allowed` (check_params). Returns the error message for a 400, or nothing.
 std::optional<std::string> parse_device_filter(const QueryParams& params, DeviceFilter& out,
                                                const std::set<std::string>& also_allowed = {});

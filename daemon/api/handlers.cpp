@@ -209,6 +209,23 @@ void Handlers::handle_description(const ApiRequest& req, ApiResponse& res) {
   }
 }
 
+void Handlers::handle_clients(const ApiRequest& req, ApiResponse& res) {
+  if (auto err = check_params("/v1/devices/{id}/clients", req.params, {})) return send_error(res, 400, *err);
+  const auto hits = lookup(req.id);
+  if (hits.size() != 1)
+    return send_error(res, hits.empty() ? 404 : 409,
+                      hits.empty() ? "no device with id '" + req.id + "'"
+                                   : std::to_string(hits.size()) + " devices match '" + req.id + "'; name one by its id");
+  const model::Device& d = hits.front()->device;
+  std::optional<model::DeviceClients> clients;
+  if (d.domain && d.topic_root) clients = status.clients(*d.domain, *d.topic_root);
+  if (!clients)
+    return send_error(res, 404,
+                      "'" + d.id + "' is not a network camera: the daemon cannot see who holds a USB camera "
+                      "(`rs-discover clients` looks for the processes)");
+  send_json(res, 200, model::to_json(*clients));
+}
+
 void Handlers::handle_domains(const ApiRequest& req, ApiResponse& res) {
   if (auto err = check_params("/v1/domains", req.params, {})) return send_error(res, 400, *err);
   const auto all = domains();

@@ -31,6 +31,7 @@ class Handlers {
   void handle_devices(const ApiRequest& req, ApiResponse& res);
   void handle_device(const ApiRequest& req, ApiResponse& res);
   void handle_description(const ApiRequest& req, ApiResponse& res);
+  void handle_clients(const ApiRequest& req, ApiResponse& res);
   void handle_domains(const ApiRequest& req, ApiResponse& res);
   void handle_participants(const ApiRequest& req, ApiResponse& res);
   void handle_health(const ApiRequest& req, ApiResponse& res);

@@ -12,10 +12,11 @@ namespace rsd::api {
 namespace {
 
 // The paths of proto/openapi.yaml, and the page and the spec themselves.
-const std::array<Route, 13> kRoutes = {{
+const std::array<Route, 14> kRoutes = {{
     {"GET", "/v1/devices", &Handlers::handle_devices},
     {"GET", "/v1/devices/{id}", &Handlers::handle_device},
     {"GET", "/v1/devices/{id}/description", &Handlers::handle_description, true},
+    {"GET", "/v1/devices/{id}/clients", &Handlers::handle_clients},
     {"GET", "/v1/devices/{id}/history", &Handlers::handle_device_history},
     {"GET", "/v1/history", &Handlers::handle_history},
     {"GET", "/v1/events", &Handlers::handle_events},

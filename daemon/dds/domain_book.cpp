@@ -134,6 +134,10 @@ void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann:
     devices_of_writer_[w.guid].insert(id);
   }
   doc[model::key::server] = std::move(server);
+  // Who uses it is the daemon's to say (a device-info's own "in-use" is not kept),
+  // and stays across announcements.
+  if (device.doc.in_use) doc[model::key::in_use] = model::to_json(*device.doc.in_use);
+  else doc.erase(model::key::in_use);
   device.doc = model::device_from_json(doc);
   if (auto ev = table_.upsert(id, std::move(doc)); ev && ev->type == EventType::added)
     log::info(prefix() + "device " + id + " added (from " + (writer ? writer->identity.guid : "unknown writer") +
@@ -400,6 +404,25 @@ std::map<std::string, nlohmann::json> DomainBook::announcements() const {
   for (const auto& [id, device] : devices_)
     if (device.doc.topic_root) out.emplace(*device.doc.topic_root, model::to_json(device.doc));
   return out;
+}
+
+std::optional<std::set<std::string>> DomainBook::servers_of(const std::string& topic_root) const {
+  const auto it = devices_.find(device_id(options_.domain, topic_root));
+  if (it == devices_.end()) return std::nullopt;
+  std::set<std::string> out;
+  for (const auto& [writer, server] : it->second.announcers) out.insert(participant_of(writer));
+  return out;
+}
+
+void DomainBook::set_in_use(const std::string& topic_root, const model::InUse& in_use) {
+  const std::string id = device_id(options_.domain, topic_root);
+  const auto it = devices_.find(id);
+  if (it == devices_.end()) return;
+  std::optional<model::InUse> now;
+  if (in_use.clients > 0) now = in_use;
+  if (it->second.doc.in_use == now) return;
+  it->second.doc.in_use = std::move(now);
+  table_.upsert(id, model::to_json(it->second.doc));
 }
 
 std::set<std::string> DomainBook::topic_roots() const {

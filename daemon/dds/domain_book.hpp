@@ -140,6 +140,13 @@ class DomainBook {
   std::optional<nlohmann::json> announcement(const std::string& topic_root) const;
   // topic-root -> the device as last announced, for every device.
   std::map<std::string, nlohmann::json> announcements() const;
+  // The participants announcing the device `topic_root` (its servers: never its
+  // clients); nothing when there is no such device.
+  std::optional<std::set<std::string>> servers_of(const std::string& topic_root) const;
+  // Who uses the device, in short, into its document (model::InUse; none while it has
+  // no client). The table changes only when the summary does: a client's burst of
+  // endpoints is one change.
+  void set_in_use(const std::string& topic_root, const model::InUse& in_use);
   // The topic-roots of every device: all the session's tick needs each time (copying
   // every announcement instead was most of the daemon's idle CPU).
   std::set<std::string> topic_roots() const;

@@ -16,6 +16,8 @@
 namespace rsd::dds {
 namespace {
 
+log::RateLimiter g_endpoint_log;
+
 std::vector<std::string> split_addresses(const char* value) {
   // Cyclone's "__NetworkAddresses" property: comma-separated locators such as
   // "192.0.2.2:22660@4" or "[fe80::1]:7410@4"; users want the host part.
@@ -106,11 +108,14 @@ void DomainSession::create_builtin_readers() {
   // Every reader and writer of the domain's participants, counted per participant
   // (taken, not kept): a participant heard but with none was reached by multicast
   // only, the doctor's "firewall" case.
-  dds_listener_t* endpoint_listener = dds_create_listener(this);
-  dds_lset_data_available(endpoint_listener, &DomainSession::on_endpoint_data);
-  for (const dds_entity_t topic : {DDS_BUILTIN_TOPIC_DCPSPUBLICATION, DDS_BUILTIN_TOPIC_DCPSSUBSCRIPTION})
-    dds_create_reader(participant_, topic, nullptr, endpoint_listener);
-  dds_delete_listener(endpoint_listener);
+  // Two callbacks, one per topic, so each knows its endpoints' kind from the start.
+  for (const bool readers : {false, true}) {
+    dds_listener_t* endpoint_listener = dds_create_listener(this);
+    dds_lset_data_available(endpoint_listener, readers ? &DomainSession::on_subscription_data : &DomainSession::on_publication_data);
+    dds_create_reader(participant_, readers ? DDS_BUILTIN_TOPIC_DCPSSUBSCRIPTION : DDS_BUILTIN_TOPIC_DCPSPUBLICATION,
+                      nullptr, endpoint_listener);
+    dds_delete_listener(endpoint_listener);
+  }
 }
 
 void DomainSession::on_participant_data(dds_entity_t reader, void* arg) {
@@ -159,7 +164,7 @@ void DomainSession::take_participant_changes(dds_entity_t reader) {
       if (sighting && c.guid != participant_guid_) participants_.alive(std::move(*sighting), now);
     } else {
       book_.participant_gone(c.guid, Clock::now());
-      participants_.gone(c.guid, now);
+      update_in_use_of_topics(participants_.gone(c.guid, now));  // a client gone
     }
     log::debug([&] { return log::domain_prefix(options_.domain) + "participant " + c.guid + (alive ? " alive" : " gone"); });
   }
@@ -173,31 +178,79 @@ void DomainSession::take_participant_changes(dds_entity_t reader) {
 }
 
 
-void DomainSession::on_endpoint_data(dds_entity_t reader, void* arg) {
+void DomainSession::on_publication_data(dds_entity_t reader, void* arg) {
   try {
-    static_cast<DomainSession*>(arg)->take_endpoint_changes(reader);
+    static_cast<DomainSession*>(arg)->take_endpoint_changes(reader, false);
+  } catch (const std::exception& e) {
+    log::error(std::string("endpoint listener: ") + e.what());
+  }
+}
+
+void DomainSession::on_subscription_data(dds_entity_t reader, void* arg) {
+  try {
+    static_cast<DomainSession*>(arg)->take_endpoint_changes(reader, true);
   } catch (const std::exception& e) {
     log::error(std::string("endpoint listener: ") + e.what());
   }
 }
 
 
-void DomainSession::take_endpoint_changes(dds_entity_t reader) {
+void DomainSession::take_endpoint_changes(dds_entity_t reader, bool readers) {
+  const std::string now = SharedTable::now_iso8601();
   take_batches(reader, [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
+    std::vector<std::string> topics;  // touched by the batch: the cameras' summaries follow once, after it
     std::lock_guard lock(mutex_);
     for (std::size_t i = 0; i < samples.size(); ++i) {
       const auto* ep = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
       // The key is there in every sample, the rest only in valid ones; an
       // endpoint's GUID begins with its participant's prefix.
       const std::string guid = guid_to_string(ep->key);
-      if (infos[i].instance_state == DDS_IST_ALIVE)
-        participants_.endpoint_alive(participant_of(guid), guid);
-      else
-        participants_.endpoint_gone(participant_of(guid), guid);
+      const std::string participant = participant_of(guid);
+      if (participant == participant_guid_) continue;  // the daemon's own (describe's reader) is no client
+      if (infos[i].instance_state == DDS_IST_ALIVE) {
+        const std::string_view topic = infos[i].valid_data && ep->topic_name ? ep->topic_name : "";
+        const EndpointRefusal r = participants_.endpoint_alive(participant, guid, topic, readers, now);
+        if (r != EndpointRefusal::none) refuse_endpoint(r, participant, topic.size());
+        else topics.emplace_back(topic);
+      } else if (std::string topic = participants_.endpoint_gone(participant, guid); !topic.empty()) {
+        topics.push_back(std::move(topic));
+      }
     }
+    update_in_use_of_topics(topics);
   });
 }
 
+void DomainSession::refuse_endpoint(EndpointRefusal r, const std::string& participant, std::size_t topic_length) {
+  std::uint64_t suppressed = 0;
+  // Keyed by domain and reason, not by peer: a flood from ever new GUIDs would grow
+  // the limiter by a slot each.
+  if (!g_endpoint_log.allow(std::to_string(options_.domain) + "/" + to_string(r), suppressed))
+    return;
+  log::warning(log::domain_prefix(options_.domain) + "endpoint of " + participant + " refused: " + to_string(r) +
+               " (topic name of " + std::to_string(topic_length) + " bytes; " +
+               std::to_string(participants_.endpoints().total()) + " endpoints and " +
+               std::to_string(participants_.endpoints().topics()) + " topics kept)" +
+               (suppressed ? "; " + std::to_string(suppressed) + " more like it suppressed" : ""));
+}
+
+void DomainSession::update_in_use_of_topics(const std::vector<std::string>& topics) {
+  std::set<std::string> roots;
+  for (const auto& t : topics)
+    for (auto& r : realdds_topics::roots_of(t)) roots.insert(std::move(r));
+  update_in_use(roots);
+}
+
+void DomainSession::update_in_use(const std::set<std::string>& roots) {
+  for (const auto& root : roots)
+    if (auto servers = book_.servers_of(root)) book_.set_in_use(root, model::summary_of(participants_.clients(root, *servers)));
+}
+
+std::optional<model::DeviceClients> DomainSession::clients(const std::string& topic_root) const {
+  std::lock_guard lock(mutex_);
+  auto servers = book_.servers_of(topic_root);
+  if (!servers) return std::nullopt;
+  return participants_.clients(topic_root, *servers);
+}
 
 std::vector<model::Participant> DomainSession::participants() const {
   const std::string now = SharedTable::now_iso8601();

@@ -159,6 +159,9 @@ void DomainSession::stop() {
   participant_guid_.clear();
   book_.participant_made();  // the next participant hears everyone anew
   participants_.participant_rebuilt();
+  // Kept devices lose their clients with the endpoints forgotten: a client gone
+  // meanwhile never comes back to say so; those still there are heard again.
+  update_in_use(book_.topic_roots());
 }
 
 void DomainSession::rebuild() {
@@ -347,9 +350,12 @@ void DomainSession::take_samples(dds_entity_t reader) {
       try {  // one bad sample must not keep the loan or the rest of the batch
         Parsed parsed = parse_device_info(static_cast<std::int32_t>(msg->data_format),
                                           std::span<const std::uint8_t>(msg->data._buffer, msg->data._length));
+        const auto* device = std::get_if<DeviceInfo>(&parsed);
+        std::string root = device ? device->topic_root : std::string();
         std::lock_guard lock(mutex_);
         identify(reader, info.publication_handle);
         book_.sample(info.publication_handle, std::move(parsed));
+        if (!root.empty()) update_in_use({std::move(root)});  // its clients may have come first
       } catch (const std::exception& e) {
         log::error(std::string("device-info sample dropped: ") + e.what());
       }

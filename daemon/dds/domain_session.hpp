@@ -101,6 +101,9 @@ class DomainSession {
   bool discovery_complete() const;  // status().complete, without the rest
   // Every participant heard on the domain but the daemon's own. Any thread.
   std::vector<model::Participant> participants() const;
+  // The clients of this domain's device with `topic_root`; nothing when there is no
+  // such device. Any thread.
+  std::optional<model::DeviceClients> clients(const std::string& topic_root) const;
   // This host's USB cameras now (sighting id -> document), announced on the domain
   // when sharing is on. Main thread.
   void share_usb(const std::map<std::string, nlohmann::json>& cameras);
@@ -109,11 +112,12 @@ class DomainSession {
   bool complete_locked() const;
   static void on_data_available(dds_entity_t reader, void* arg);
   static void on_participant_data(dds_entity_t reader, void* arg);
-  static void on_endpoint_data(dds_entity_t reader, void* arg);
+  static void on_publication_data(dds_entity_t reader, void* arg);
+  static void on_subscription_data(dds_entity_t reader, void* arg);
   static void on_subscription_matched(dds_entity_t reader, dds_subscription_matched_status_t status,
                                       void* arg);
   void take_participant_changes(dds_entity_t reader);
-  void take_endpoint_changes(dds_entity_t reader);
+  void take_endpoint_changes(dds_entity_t reader, bool readers);  // readers: DCPSSubscription's
   void take_samples(dds_entity_t reader);
   void handle_matched(dds_entity_t reader, const dds_subscription_matched_status_t& status);
   // Tells the book about `writer` if it does not know it yet (its GUID, its
@@ -123,6 +127,13 @@ class DomainSession {
   MatchedWriters matched_writers(dds_entity_t reader) const;
 
   void create_builtin_readers();  // domain_participants.cpp
+  // The in-use summary of each camera among `roots` into the table, where it changed.
+  // Needs mutex_ held.
+  void update_in_use(const std::set<std::string>& roots);
+  // The same, for the cameras whose topics `topics` may be.
+  void update_in_use_of_topics(const std::vector<std::string>& topics);
+  // Counts nothing itself (the book does); logs at a limited rate. Needs mutex_ held.
+  void refuse_endpoint(EndpointRefusal r, const std::string& participant, std::size_t topic_length);
   void create_reader();
   void delete_reader();
 

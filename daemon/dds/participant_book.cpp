@@ -30,7 +30,8 @@ void ParticipantBook::alive(ParticipantSighting s, const std::string& now) {
   p->state = model::ParticipantState::alive;
 }
 
-void ParticipantBook::gone(const std::string& guid, const std::string& now) {
+std::vector<std::string> ParticipantBook::gone(const std::string& guid, const std::string& now) {
+  std::vector<std::string> topics = endpoints_.participant_gone(guid);
   std::size_t most = 0;
   if (auto m = most_endpoints_.find(guid); m != most_endpoints_.end()) {
     most = m->second;
@@ -39,7 +40,7 @@ void ParticipantBook::gone(const std::string& guid, const std::string& now) {
   const auto it = alive_.find(guid);
   if (it == alive_.end()) {
     if (unlisted_ > 0) --unlisted_;  // one of those never listed
-    return;
+    return topics;
   }
   model::Participant p = std::move(it->second);
   alive_.erase(it);
@@ -50,32 +51,49 @@ void ParticipantBook::gone(const std::string& guid, const std::string& now) {
   p.endpoints = most;
   gone_.push_back(std::move(p));
   while (gone_.size() > max_gone_) gone_.pop_front();
-  if (auto e = endpoints_.find(guid); e != endpoints_.end()) {
-    endpoint_count_ -= e->second.size();
-    endpoints_.erase(e);
+  return topics;
+}
+
+EndpointRefusal ParticipantBook::endpoint_alive(const std::string& participant, const std::string& endpoint,
+                                                std::string_view topic, bool reader, const std::string& now) {
+  const EndpointRefusal r = endpoints_.alive(participant, endpoint, topic, reader, now);
+  if (const std::size_t n = endpoints_.count(participant); n > 0) {
+    auto& most = most_endpoints_[participant];
+    most = std::max(most, n);
   }
+  return r;
 }
 
-void ParticipantBook::endpoint_alive(const std::string& participant, const std::string& endpoint) {
-  if (endpoint_count_ >= kMaxEndpoints) return;
-  auto& set = endpoints_[participant];
-  if (set.insert(endpoint).second) ++endpoint_count_;
-  auto& most = most_endpoints_[participant];
-  most = std::max(most, set.size());
+std::string ParticipantBook::endpoint_gone(const std::string& participant, const std::string& endpoint) {
+  return endpoints_.gone(participant, endpoint);
 }
 
-void ParticipantBook::endpoint_gone(const std::string& participant, const std::string& endpoint) {
-  const auto e = endpoints_.find(participant);
-  if (e == endpoints_.end()) return;
-  endpoint_count_ -= e->second.erase(endpoint);
-  if (e->second.empty()) endpoints_.erase(e);
+model::DeviceClients ParticipantBook::clients(const std::string& topic_root, const std::set<std::string>& servers) const {
+  model::DeviceClients out;
+  for (auto& [guid, use] : endpoints_.users_of(topic_root, servers)) {
+    model::Client c;
+    c.guid = guid;
+    c.vendor_id = model::vendor_id_of(guid);
+    c.vendor = model::vendor_of(c.vendor_id);
+    if (auto p = alive_.find(guid); p != alive_.end()) {
+      c.name = p->second.name;
+      c.addresses = p->second.addresses;
+      c.host = p->second.host;
+      c.process = p->second.process;
+      c.pid = p->second.pid;
+    }
+    c.since = use.since;
+    c.streams.assign(use.streams.begin(), use.streams.end());
+    for (const auto& [stream, readers] : use.readers) out.streams[stream] += readers;
+    out.clients.push_back(std::move(c));
+  }
+  return out;
 }
 
 void ParticipantBook::participant_rebuilt() {
   alive_.clear();
   unlisted_ = 0;
   endpoints_.clear();
-  endpoint_count_ = 0;
   most_endpoints_.clear();
 }
 
@@ -91,7 +109,7 @@ std::vector<model::Participant> ParticipantBook::list(int domain, const std::str
   for (auto& p : out) {
     p.domain = domain;
     if (p.state != model::ParticipantState::alive) continue;  // its writers went with it
-    if (auto e = endpoints_.find(p.guid); e != endpoints_.end()) p.endpoints = e->second.size();
+    p.endpoints = endpoints_.count(p.guid);
     if (auto c = publishers.find(p.guid); c != publishers.end()) {
       p.topic_roots = c->second.topic_roots;
       p.device_info_writers = c->second.writers;

@@ -4,6 +4,8 @@
 // the wall-clock times come in as text so tests give made-up ones.
 #pragma once
 
+#include "dds/endpoint_book.hpp"
+#include "rsd_model/clients.hpp"
 #include "rsd_model/participant.hpp"
 
 #include <cstddef>
@@ -40,18 +42,27 @@ class ParticipantBook {
   // thousand times) cannot grow the daemon: alive ones beyond `max_alive` are
   // not listed (counted in `unlisted`), and only the latest `max_gone` of those
   // gone are remembered.
-  explicit ParticipantBook(std::size_t max_alive = 4096, std::size_t max_gone = 256)
-      : max_alive_(max_alive), max_gone_(max_gone) {}
+  explicit ParticipantBook(std::size_t max_alive = 4096, std::size_t max_gone = 256, EndpointLimits limits = {})
+      : max_alive_(max_alive), max_gone_(max_gone), endpoints_(limits) {}
 
   // Heard (first time, or its announcement changed, or back after being gone).
   void alive(ParticipantSighting sighting, const std::string& now);
-  // It said goodbye or its lease ran out (Cyclone tells neither apart).
-  void gone(const std::string& guid, const std::string& now);
+  // It said goodbye or its lease ran out (Cyclone tells neither apart). Returns
+  // the topics its endpoints were on (the cameras whose clients may have changed).
+  std::vector<std::string> gone(const std::string& guid, const std::string& now);
   // An endpoint (reader or writer, any topic) of a participant was discovered, or
   // went. Participants are named by GUID prefix (an endpoint's GUID shares its
-  // participant's), so the order against alive() does not matter.
-  void endpoint_alive(const std::string& participant, const std::string& endpoint);
-  void endpoint_gone(const std::string& participant, const std::string& endpoint);
+  // participant's), so the order against alive() does not matter. `gone` returns
+  // the endpoint's topic ("" if none was kept).
+  EndpointRefusal endpoint_alive(const std::string& participant, const std::string& endpoint, std::string_view topic,
+                                 bool reader, const std::string& now);
+  std::string endpoint_gone(const std::string& participant, const std::string& endpoint);
+  const EndpointBook& endpoints() const { return endpoints_; }
+
+  // The clients of the camera `topic_root`: every participant but its `servers` with
+  // an endpoint on its topics (EndpointBook::users_of), named from its announcement
+  // when it has been heard, and the streams read now with their readers.
+  model::DeviceClients clients(const std::string& topic_root, const std::set<std::string>& servers) const;
 
   // The daemon's participant was made anew: it hears every alive peer again and
   // those it does not are not there; the gone ones are kept.
@@ -68,16 +79,13 @@ class ParticipantBook {
   std::map<std::string, model::Participant> alive_;  // by GUID
   std::deque<model::Participant> gone_;               // oldest first
   std::size_t unlisted_ = 0;
-  // Endpoint GUIDs by participant GUID; bounded like the participants (a peer
-  // making endpoints without end is counted up to the bound only).
-  std::map<std::string, std::set<std::string>> endpoints_;
-  std::size_t endpoint_count_ = 0;
+  // Endpoints with their topics, by participant; bounded (EndpointLimits).
+  EndpointBook endpoints_;
   // The most endpoints each participant had at once: a program that ends cleanly
   // disposes its endpoints before its participant, so by gone() it has none left,
   // like one whose unicast never got through; this keeps them apart for the doctor.
   // An entry per participant with endpoints_ (bounded with it), dropped at gone().
   std::map<std::string, std::size_t> most_endpoints_;
-  static constexpr std::size_t kMaxEndpoints = 65536;
 };
 
 }  // namespace rsd::dds

@@ -143,6 +143,16 @@ bool DomainSet::discovery_complete() const {
   return true;
 }
 
+std::optional<model::DeviceClients> DomainSet::clients(int domain, const std::string& topic_root) const {
+  std::shared_ptr<dds::DomainSession> session;
+  {
+    std::lock_guard lock(mutex_);
+    if (auto it = sessions_.find(domain); it != sessions_.end()) session = it->second;
+  }
+  if (!session) return std::nullopt;
+  return session->clients(topic_root);
+}
+
 DeviceDescription DomainSet::describe(const std::string& id, std::chrono::milliseconds wait) const {
   using Outcome = DeviceDescription::Outcome;
   const auto device = table_.find(id);

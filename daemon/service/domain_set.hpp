@@ -69,6 +69,8 @@ class DomainSet {
   // merged into one): its description from its realdds server, waiting up to
   // `wait`. Any thread; blocks. See dds::DomainSession::describe.
   DeviceDescription describe(const std::string& id, std::chrono::milliseconds wait) const;
+  // Who uses the camera `topic_root` of `domain`. Any thread.
+  std::optional<model::DeviceClients> clients(int domain, const std::string& topic_root) const;
 
  private:
   std::shared_ptr<dds::DomainSession> make(int domain) const;

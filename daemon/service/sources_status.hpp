@@ -23,6 +23,9 @@ class SourcesStatus final : public StatusSource {
   std::optional<UsbStatus> usb() const override { return usb_.status(); }
   DeviceDescription describe(const std::string& id) const override { return domains_.describe(id, describe_wait_); }
   std::vector<model::ExpectedCamera> expected() const override { return expected_.get(); }
+  std::optional<model::DeviceClients> clients(int domain, const std::string& topic_root) const override {
+    return domains_.clients(domain, topic_root);
+  }
 
  private:
   const DomainSet& domains_;

@@ -8,6 +8,7 @@
 #include "status/domain_status.hpp"
 #include "status/usb_status.hpp"
 
+#include "rsd_model/clients.hpp"
 #include "rsd_model/expected.hpp"
 #include "rsd_model/participant.hpp"
 
@@ -40,6 +41,13 @@ class StatusSource {
   virtual DeviceDescription describe(const std::string& id) const = 0;
   // The cameras the configuration expects (`expect`), in its order; none by default.
   virtual std::vector<model::ExpectedCamera> expected() const { return {}; }
+  // The clients of the DDS camera `topic_root` on `domain` (participants other than
+  // its server on its topics); nothing when the domain has no such camera.
+  virtual std::optional<model::DeviceClients> clients(int domain, const std::string& topic_root) const {
+    (void)domain;
+    (void)topic_root;
+    return std::nullopt;
+  }
 };
 
 }  // namespace rsd

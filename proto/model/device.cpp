@@ -66,6 +66,8 @@ json to_json(const Host& h) {
   return out;
 }
 
+json to_json(const InUse& u) { return {{"clients", u.clients}, {"streaming", u.streaming}}; }
+
 namespace {
 
 json usb_json(const Usb& u) {
@@ -112,6 +114,7 @@ json to_json(const Device& d) {
   if (d.host) out[key::host] = to_json(*d.host);
   if (!d.warnings.empty()) out[key::warnings] = d.warnings;
   put(key::merged_into, d.merged_into);
+  if (d.in_use) out[key::in_use] = to_json(*d.in_use);
   return out;
 }
 

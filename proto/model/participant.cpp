@@ -30,18 +30,6 @@ constexpr const char* endpoints = "endpoints";
 
 constexpr const char* kWhat = "a participant entry";
 
-// A list of strings, each checked.
-std::vector<std::string> texts(const nlohmann::json& doc, const char* name) {
-  const auto& v = read_json::member(doc, name, kWhat);
-  if (!v.is_array()) throw MalformedDocument(std::string(kWhat) + ": \"" + name + "\" is not an array");
-  std::vector<std::string> out;
-  for (const auto& item : v) {
-    if (!item.is_string()) throw MalformedDocument(std::string(kWhat) + ": \"" + name + "\" holds a non-string");
-    out.push_back(item.get<std::string>());
-  }
-  return out;
-}
-
 int hex_digit(char c) {
   if (c >= '0' && c <= '9') return c - '0';
   if (c >= 'a' && c <= 'f') return c - 'a' + 10;
@@ -115,13 +103,10 @@ Participant participant_from_json(const nlohmann::json& doc) {
   // A vendor this client does not know yet (a newer daemon's) reads as "other".
   p.vendor = parse_vendor(text(doc, key::vendor, kWhat)).value_or(Vendor::other);
   p.vendor_id = text(doc, key::vendor_id, kWhat);
-  p.addresses = texts(doc, key::addresses);
+  p.addresses = texts(doc, key::addresses, kWhat);
   if (doc.contains(key::host)) p.host = text(doc, key::host, kWhat);
   if (doc.contains(key::process)) p.process = text(doc, key::process, kWhat);
-  if (auto it = doc.find(key::pid); it != doc.end()) {
-    if (!it->is_number_integer()) throw MalformedDocument("a participant entry's \"pid\" is not a number");
-    p.pid = it->get<std::int64_t>();
-  }
+  p.pid = read_json::pid(doc, key::pid, kWhat);
   if (auto it = doc.find(key::lease_seconds); it != doc.end()) {
     if (!it->is_number()) throw MalformedDocument("a participant entry's \"lease-seconds\" is not a number");
     p.lease_seconds = it->get<double>();
@@ -136,7 +121,7 @@ Participant participant_from_json(const nlohmann::json& doc) {
   p.devices = count(doc, key::devices, kWhat);
   p.silent_writers = count(doc, key::silent_writers, kWhat);
   p.never_announced = flag(doc, key::never_announced, kWhat);
-  p.topic_roots = texts(doc, key::topic_roots);
+  p.topic_roots = texts(doc, key::topic_roots, kWhat);
   p.endpoints = count(doc, key::endpoints, kWhat);
   return p;
 }

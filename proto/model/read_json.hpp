@@ -8,7 +8,9 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <vector>
 
 namespace rsd::model::read_json {
 
@@ -38,6 +40,26 @@ inline bool flag(const nlohmann::json& doc, const char* name, const char* what) 
   const auto& v = member(doc, name, what);
   if (!v.is_boolean()) throw MalformedDocument(std::string(what) + ": \"" + name + "\" is not true or false");
   return v.get<bool>();
+}
+
+// A list of strings, each checked.
+inline std::vector<std::string> texts(const nlohmann::json& doc, const char* name, const char* what) {
+  const auto& v = member(doc, name, what);
+  if (!v.is_array()) throw MalformedDocument(std::string(what) + ": \"" + name + "\" is not an array");
+  std::vector<std::string> out;
+  for (const auto& item : v) {
+    if (!item.is_string()) throw MalformedDocument(std::string(what) + ": \"" + name + "\" holds a non-string");
+    out.push_back(item.get<std::string>());
+  }
+  return out;
+}
+
+// An optional "pid": a number when given.
+inline std::optional<std::int64_t> pid(const nlohmann::json& doc, const char* name, const char* what) {
+  const auto it = doc.find(name);
+  if (it == doc.end()) return std::nullopt;
+  if (!it->is_number_integer()) throw MalformedDocument(std::string(what) + "'s \"" + name + "\" is not a number");
+  return it->get<std::int64_t>();
 }
 
 inline void want_object(const nlohmann::json& doc, const char* what) {

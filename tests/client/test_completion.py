@@ -47,7 +47,8 @@ def camera_env(daemon, realdds_server, domains):
 def test_bash_commands_options_and_devices(camera_env):
     d, info, env = camera_env
     assert bash_complete("rs-discover ", env) == sorted(
-        ["list", "get", "describe", "watch", "wait", "domains", "participants", "doctor", "health", "history", "help"])
+        ["list", "get", "describe", "clients", "watch", "wait", "domains", "participants", "doctor", "health", "history",
+         "help"])
     assert bash_complete("rs-discover pa", env) == ["participants"]
     options = bash_complete("rs-discover list --", env)
     for option in ("--domain", "--serial", "--format", "--no-headers", "--json", "--endpoint"):
@@ -58,6 +59,7 @@ def test_bash_commands_options_and_devices(camera_env):
     assert bash_complete("rs-discover get ", env) == sorted([device_id, info["serial"]])
     assert bash_complete("rs-discover describe 1236", env) == [info["serial"]]
     assert bash_complete("rs-discover history 1236", env) == [info["serial"]]
+    assert bash_complete("rs-discover clients 1236", env) == [info["serial"]]
     assert bash_complete("rs-discover list --serial ", env) == [info["serial"]]
 
 
@@ -91,7 +93,8 @@ def test_zsh_offers_the_same(camera_env):
         source {ZSH}
     """], capture_output=True, text=True, env=env, timeout=30)
     assert sorted(commands.stdout.split()) == sorted(
-        ["list", "get", "describe", "watch", "wait", "domains", "participants", "doctor", "health", "history"]), commands.stderr
+        ["list", "get", "describe", "clients", "watch", "wait", "domains", "participants", "doctor", "health",
+         "history"]), commands.stderr
 
 
 class Terminal:

@@ -1,5 +1,6 @@
 // The device model: what it reads it writes back unchanged, whatever a peer sent; the
 // lookup rule; the default-socket rule the daemon and the clients share.
+#include "rsd_model/clients.hpp"
 #include "rsd_model/device.hpp"
 #include "rsd_model/description.hpp"
 #include "rsd_model/participant.hpp"
@@ -39,6 +40,28 @@ TEST(Model, WhatTheTypesCannotHoldStaysVerbatim) {
     EXPECT_EQ(to_json(device_from_json(doc)), doc) << text;
   }
   EXPECT_EQ(device_from_json(json::parse(R"({"serial":123})")).serial, std::nullopt);
+}
+
+TEST(Model, InUseAndClientsRoundTrip) {
+  auto doc = json::parse(R"({"id":"dds-0-r","in-use":{"clients":2,"streaming":["Depth"]}})");
+  auto d = device_from_json(doc);
+  ASSERT_TRUE(d.in_use);
+  EXPECT_EQ(*d.in_use, (InUse{2, {"Depth"}}));
+  EXPECT_TRUE(d.used());
+  EXPECT_EQ(to_json(d), doc);
+  // Anything else under the key is a peer's: verbatim in extra, not in use.
+  auto odd = json::parse(R"({"id":"x","in-use":{"clients":-1,"streaming":[]}})");
+  EXPECT_FALSE(device_from_json(odd).used());
+  EXPECT_EQ(to_json(device_from_json(odd)), odd);
+
+  DeviceClients c;
+  c.clients.push_back({"g", "app", Vendor::cyclone_dds, "01.10", {"192.0.2.1"}, "pc", "python", 42, "T", {"Depth"}});
+  c.streams = {{"Depth", 1}};
+  const auto text = to_json(c);
+  EXPECT_EQ(to_json(device_clients_from_json(text)), text);
+  EXPECT_EQ(summary_of(c), (InUse{1, {"Depth"}}));
+  EXPECT_THROW(device_clients_from_json(json::parse(R"({"clients":[{}],"streams":{}})")), MalformedDocument);
+  EXPECT_THROW(device_clients_from_json(json::parse(R"({"clients":[],"streams":{"Depth":-1}})")), MalformedDocument);
 }
 
 TEST(Model, StateAndLookup) {

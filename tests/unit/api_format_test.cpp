@@ -421,3 +421,24 @@ TEST(ApiHttpHealth, AgreesUnlessAPassedSocketIsElsewhere) {
   EXPECT_TRUE(h.agrees);
   EXPECT_EQ(h.listening, "");
 }
+
+TEST(ApiFilter, InUseIsTrueOrFalse) {
+  const json used = {{"id", "dds-0-a"}, {"in-use", {{"clients", 1}, {"streaming", json::array()}}}};
+  const json idle = {{"id", "dds-0-b"}};
+  DeviceFilter yes, no;
+  ASSERT_FALSE(parse_device_filter({{"in-use", "true"}}, yes));
+  ASSERT_FALSE(parse_device_filter({{"in-use", "FALSE"}}, no));
+  EXPECT_FALSE(yes.empty());
+  EXPECT_TRUE(matches(yes, used));
+  EXPECT_FALSE(matches(yes, idle));
+  EXPECT_FALSE(matches(no, used));
+  EXPECT_TRUE(matches(no, idle));
+  // A malformed "in-use" (a peer's own key) is not the daemon's summary: not in use.
+  EXPECT_FALSE(matches(yes, json{{"id", "x"}, {"in-use", true}}));
+  for (const char* bad : {"", "1", "yes"}) {
+    DeviceFilter f;
+    EXPECT_TRUE(parse_device_filter({{"in-use", bad}}, f)) << bad;
+  }
+  DeviceFilter both;
+  EXPECT_TRUE(parse_device_filter({{"in-use", "true"}, {"in-use", "false"}}, both));
+}

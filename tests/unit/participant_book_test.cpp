@@ -133,10 +133,10 @@ TEST(ParticipantBook, EndpointsAreCountedPerParticipantAndKeptWhenItGoes) {
   ParticipantBook book;
   const auto p = fast_dds(1);
   const std::string prefix = p.guid.substr(0, 27);
-  book.endpoint_alive(p.guid, prefix + "00000503");  // before its participant: order does not matter
+  book.endpoint_alive(p.guid, prefix + "00000503", "topic", false, "T");  // before its participant: order does not matter
   book.alive(p, "T1");
-  book.endpoint_alive(p.guid, prefix + "00000504");
-  book.endpoint_alive(p.guid, prefix + "00000504");  // the same one again (a QoS change)
+  book.endpoint_alive(p.guid, prefix + "00000504", "topic", false, "T");
+  book.endpoint_alive(p.guid, prefix + "00000504", "topic", false, "T");  // the same one again (a QoS change)
   book.alive(fast_dds(2), "T1");
   auto list = book.list(0, "T2", {});
   ASSERT_EQ(list.size(), 2u);
@@ -158,8 +158,8 @@ TEST(ParticipantBook, OneThatEndedCleanlyKeepsWhatItHadExchanged) {
   const std::string prefix = p.guid.substr(0, 27);
   book.alive(p, "T1");
   book.alive(walled, "T1");
-  book.endpoint_alive(p.guid, prefix + "00000503");
-  book.endpoint_alive(p.guid, prefix + "00000504");
+  book.endpoint_alive(p.guid, prefix + "00000503", "topic", false, "T");
+  book.endpoint_alive(p.guid, prefix + "00000504", "topic", false, "T");
   book.endpoint_gone(p.guid, prefix + "00000503");
   book.endpoint_gone(p.guid, prefix + "00000504");
   book.gone(p.guid, "T2");

@@ -188,6 +188,22 @@ struct Participant {
   std::string json;  // the whole entry
 };
 
+// A program using a network camera (GET /v1/devices/{id}/clients): a DDS participant
+// other than the camera's server with a reader or writer on its topics.
+struct CameraClient {
+  std::string guid, name, vendor;
+  std::vector<std::string> addresses;
+  std::string host, process;  // "" unless it says (Cyclone DDS peers do)
+  std::string since;          // ISO 8601 UTC: its first endpoint on the camera's topics
+  std::vector<std::string> streams;  // the streams it reads
+};
+
+struct CameraClients {
+  std::vector<CameraClient> clients;
+  std::map<std::string, std::uint64_t> streams;  // read now: name -> readers
+  std::string json;                              // the whole document
+};
+
 struct Health {
   std::string status;  // "ok" when healthy
   std::string version;
@@ -486,6 +502,9 @@ class RSDISCOVERY_API Client {
   // rebuilding its DDS participant) is asked again after its Retry-After.
   Description describe(const std::string& id,
                        std::chrono::milliseconds timeout = std::chrono::milliseconds(35000));
+  // Who uses a network camera (id, serial or topic-root). Throws Error(not_found) when
+  // there is no such camera or it is a USB one (the daemon cannot see processes).
+  CameraClients clients(const std::string& id);
   std::vector<DomainStatus> domains();
   // Every participant heard on the daemon's domains (or on `domain` only), alive
   // first, then those gone, latest first.

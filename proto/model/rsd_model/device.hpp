@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstddef>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -38,6 +39,8 @@ inline constexpr const char* usb = "usb";
 inline constexpr const char* host = "host";
 inline constexpr const char* warnings = "warnings";
 inline constexpr const char* merged_into = "merged-into";
+// A DDS camera's clients, in short (written only while it has one; rsd_model/clients.hpp).
+inline constexpr const char* in_use = "in-use";
 }  // namespace key
 
 // remote_usb ("remote-usb"): a camera plugged into another host's USB, which that
@@ -80,6 +83,14 @@ struct Host {
   std::optional<std::string> participant_guid;
 };
 
+// Who uses a DDS camera, in short: its clients (participants other than its server on
+// its topics) and the streams some client reads now (sorted).
+struct InUse {
+  std::size_t clients = 0;
+  std::vector<std::string> streaming;
+  bool operator==(const InUse&) const = default;
+};
+
 struct Device {
   std::string id;  // empty in a source's sighting: the table sets it
   std::optional<Source> source;
@@ -99,6 +110,7 @@ struct Device {
   std::optional<Host> host;      // remote-usb
   std::vector<std::string> warnings;  // plain-language; empty: not written
   std::optional<std::string> merged_into;  // on a `removed` entry that joined another
+  std::optional<InUse> in_use;             // DDS, while it has a client
   // Every other key, verbatim (the camera's own device-info keys; and a known key whose
   // value is not of the type above). Always an object.
   nlohmann::json extra = nlohmann::json::object();
@@ -108,11 +120,13 @@ struct Device {
   // The lookup rule of GET /v1/devices/{key}, the clients and the CLI: after the id
   // (which the table answers itself), a serial or a topic-root names a device.
   bool named_by(std::string_view key) const;
+  bool used() const { return in_use && in_use->clients > 0; }
 };
 
 nlohmann::json to_json(const Device& device);
 nlohmann::json to_json(const Server& server);  // the "server" part alone (kept per announcer)
 nlohmann::json to_json(const Host& host);
+nlohmann::json to_json(const InUse& in_use);
 // Never throws (see the round trip above). Callers that need a device check first that
 // `doc` is an object with a string "id"; anything else gives an empty Device.
 Device device_from_json(const nlohmann::json& doc);

@@ -85,6 +85,7 @@ template <class V> bool read(const V& v, Source& out);
 template <class V> bool read(const V& v, Server& out);
 template <class V> bool read(const V& v, Usb& out);
 template <class V> bool read(const V& v, Host& out);
+template <class V> bool read(const V& v, InUse& out);
 template <class V, class T> bool read(const V& v, std::optional<T>& out);
 
 template <class V>
@@ -190,6 +191,23 @@ bool read(const V& v, Host& out) {
   return true;
 }
 
+template <class V>
+bool read(const V& v, InUse& out) {
+  if (!v.is_object()) return false;
+  InUse u;
+  int required = 0;
+  if (!v.each_member([&](std::string_view k, const V& value) {
+        int n = -1;
+        if (k == "clients") return read(value, n) && n >= 0 && (u.clients = static_cast<std::size_t>(n), ++required);
+        if (k == "streaming") return read(value, u.streaming) && ++required;
+        return false;
+      }))
+    return false;
+  if (required != 2) return false;
+  out = std::move(u);
+  return true;
+}
+
 template <class V, class T>
 bool read(const V& v, std::optional<T>& out) {
   T value{};
@@ -207,7 +225,7 @@ Device read_device(const V& doc) {
   Device d;
   if (!doc.is_object()) return d;
   doc.each_member([&](std::string_view k, const V& v) {
-    // Compared as a string_view: by length first, which turns most of the 18 keys
+    // Compared as a string_view: by length first, which turns most of the 19 keys
     // away without a memcmp (a fifth of reading a device, callgrind).
     bool ok = false;
     if (k == key::id) ok = read(v, d.id) && !d.id.empty();
@@ -230,6 +248,7 @@ Device read_device(const V& doc) {
     else if (k == key::host) ok = read(v, d.host);
     else if (k == key::warnings) ok = read(v, d.warnings) && !d.warnings.empty();
     else if (k == key::merged_into) ok = read(v, d.merged_into);
+    else if (k == key::in_use) ok = read(v, d.in_use);
     if (!ok) {
       if (k == key::id) d.id.clear();
       if (k == key::sources) d.sources.clear();

@@ -35,16 +35,19 @@ from ._client import (
 )
 from ._expected import Expected, ExpectedCamera, WaitTimeout
 from ._history import DeviceHistory, GoneDevice, History, HistoryChange
-from ._model import Device, DomainStatus, Health, Host, Interface, Participant, Server, Usb, UsbStatus
+from ._model import (CameraClient, Device, DeviceClients, DomainStatus, Health, Host, Interface, Participant, Server,
+                     Usb, UsbStatus)
 from ._open import DeviceGone, NotANetworkCamera, NotReady, OpenError, Pyrealsense2Missing
 from ._query import Domains
 
 __version__ = "0.2.0"
 
 __all__ = [
+    "CameraClient",
     "Client",
     "DaemonNotRunning",
     "Device",
+    "DeviceClients",
     "DeviceGone",
     "DeviceHistory",
     "Gone",

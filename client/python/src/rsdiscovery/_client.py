@@ -16,7 +16,7 @@ from ._endpoint import Endpoint, _connect_error, _endpoint, _UnixConnection
 from ._errors import (DaemonNotRunning, Gone, HTTPError, MalformedReply, NotFound, PermissionDenied,
                       RSDiscoveryError, VersionMismatch)
 from ._history import DeviceHistory, GoneDevice, History
-from ._model import Device, DomainStatus, Health, Participant
+from ._model import Device, DeviceClients, DomainStatus, Health, Participant
 from ._query import _COMPLETE_POLL, Domains, _check_filters, _check_seconds, _complete, _domains, _query
 from ._watch import Event, Watcher, _generate
 
@@ -184,15 +184,18 @@ class Client:
 
     def list_devices(self, domain: Domains = None, product_line: Optional[str] = None,
                      source: Optional[str] = None, *, serial: Optional[str] = None, name: Optional[str] = None,
-                     address: Optional[str] = None, host: Optional[str] = None) -> List[Device]:
+                     address: Optional[str] = None, host: Optional[str] = None,
+                     in_use: Optional[bool] = None) -> List[Device]:
         """The devices the daemon knows now, as :class:`Device`, optionally filtered: DDS
         ``domain`` (one id, or several: ``domain=[1, 2]``, as ``rs-discover list -d 1 -d 2``),
         product line, ``dds``/``usb``/``remote-usb``, serial, a part of the name, an address of
         the camera's server (or of the host sharing it), ``host``: the USB cameras the daemon
-        on the host of this name shares (remote-usb, :attr:`Device.host`); the daemon
-        filters, values in any case. Waits for the complete table first
+        on the host of this name shares (remote-usb, :attr:`Device.host`), ``in_use``: network
+        cameras with a client (True) or every other device (False, see :meth:`clients`); the
+        daemon filters, values in any case. Waits for the complete table first
         (``complete_timeout``)."""
-        return self._list((domain, product_line, source, serial, name, address, host), self._complete_deadline())
+        return self._list((domain, product_line, source, serial, name, address, host, in_use),
+                          self._complete_deadline())
 
     def _list(self, filters: Tuple[Any, ...], deadline: float) -> List[Device]:
         path = "/v1/devices" + _query(*filters)
@@ -302,6 +305,27 @@ class Client:
             raise MalformedReply(f"malformed reply from rs-discoveryd at {self.endpoint}: no list of domains")
         return [DomainStatus.from_json(d) for d in doms]
 
+    def clients(self, device: "Device | str") -> DeviceClients:
+        """Who uses a network camera (``GET /v1/devices/{id}/clients``), given as a
+        :class:`Device` or its id, serial or topic-root: its clients (DDS participants
+        other than its server on its topics, with the streams each reads) and the streams
+        read now. Raises :class:`NotFound` for no such camera or a USB one (the daemon
+        cannot see processes: ``rs-discover clients`` looks for them)."""
+        key = device.id if isinstance(device, Device) else device
+        if not isinstance(key, str) or not key:
+            raise ValueError(f"device must be a Device or a device's id, serial or topic-root, not {device!r}")
+        path = "/v1/devices/" + urllib.parse.quote(key, safe="") + "/clients"
+        status, body = self._request(path)
+        if status == 404:
+            try:
+                detail = json.loads(body).get("error", "")
+            except (ValueError, AttributeError):
+                detail = ""
+            raise NotFound(detail or f"no device with id {key!r}")
+        if status != 200:
+            raise self._status_error(path, status, body)
+        return DeviceClients.from_json(self._json_object(path, body))
+
     def participants(self, domain: Domains = None, state: Optional[str] = "alive") -> List[Participant]:
         """The DDS participants the daemon hears (``/v1/participants``), as
         :class:`Participant`: realdds servers, librealsense and ROS programs, other DDS tools.
@@ -409,12 +433,14 @@ class Client:
 def list_devices(domain: Domains = None, product_line: Optional[str] = None, source: Optional[str] = None,
                  endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0, *,
                  serial: Optional[str] = None, name: Optional[str] = None,
-                 address: Optional[str] = None, host: Optional[str] = None) -> List[Device]:
+                 address: Optional[str] = None, host: Optional[str] = None,
+                 in_use: Optional[bool] = None) -> List[Device]:
     """The devices the daemon knows now (see :meth:`Client.list_devices`; ``complete_timeout=0``
     does not wait for the daemon's first discovery)."""
     return Client(endpoint, complete_timeout=complete_timeout).list_devices(domain, product_line, source,
                                                                             serial=serial, name=name,
-                                                                            address=address, host=host)
+                                                                            address=address, host=host,
+                                                                            in_use=in_use)
 
 
 def get_device(device_id: str, endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0) -> Device:

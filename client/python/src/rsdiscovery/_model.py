@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
-from typing import Any, ItemsView, KeysView, Mapping, Optional, Tuple, Type, TypeVar
+from typing import Any, Dict, ItemsView, KeysView, Mapping, Optional, Tuple, Type, TypeVar
 
 from ._errors import MalformedReply
 
@@ -294,6 +294,54 @@ class Participant(_Document):
 
     def __hash__(self) -> int:
         return hash((self.domain, self.guid, self.state))
+
+
+@dataclass(frozen=True)
+class CameraClient(_Document):
+    """A program using a network camera (``GET /v1/devices/{id}/clients``): a DDS
+    participant other than the camera's server with a reader or writer on its topics.
+    ``since`` is when its first one was discovered; ``streams`` the streams it reads."""
+
+    guid: str
+    name: str
+    vendor: str
+    vendor_id: str
+    addresses: Tuple[str, ...]
+    host: Optional[str]
+    process: Optional[str]
+    pid: Optional[int]
+    since: str
+    streams: Tuple[str, ...]
+    raw: Mapping[str, Any] = field(repr=False)
+
+    @staticmethod
+    def from_json(doc: Any) -> "CameraClient":
+        r = _Read(doc, "a camera's client")
+        return CameraClient(guid=r.req("guid", str), name=r.get("name", str, ""), vendor=r.get("vendor", str, "other"),
+                            vendor_id=r.get("vendor-id", str, ""), addresses=r.strings("addresses"),
+                            host=r.opt("host", str), process=r.opt("process", str), pid=r.opt("pid", int),
+                            since=r.get("since", str, ""), streams=r.strings("streams"), raw=r.doc)
+
+
+@dataclass(frozen=True)
+class DeviceClients:
+    """Who uses a network camera: its ``clients``, and ``streams``, each stream some
+    client reads now with its number of readers."""
+
+    clients: Tuple[CameraClient, ...]
+    streams: Mapping[str, int]
+
+    @staticmethod
+    def from_json(doc: Any) -> "DeviceClients":
+        if not isinstance(doc, dict) or not isinstance(doc.get("clients"), list) or not isinstance(
+                doc.get("streams"), dict):
+            raise MalformedReply("malformed reply from rs-discoveryd: not a device's clients")
+        streams: Dict[str, int] = {}
+        for name, readers in doc["streams"].items():
+            if not isinstance(readers, int) or isinstance(readers, bool):
+                raise MalformedReply(f"malformed reply from rs-discoveryd: readers of {name!r} is not a count")
+            streams[name] = readers
+        return DeviceClients(clients=tuple(CameraClient.from_json(c) for c in doc["clients"]), streams=streams)
 
 
 @dataclass(frozen=True)

@@ -52,7 +52,7 @@ def _check_seconds(name: str, value: Any, allow_zero: bool = True) -> None:
 
 def _query(domain: Domains, product_line: Optional[str], source: Optional[str],
            serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None,
-           host: Optional[str] = None) -> str:
+           host: Optional[str] = None, in_use: Optional[bool] = None) -> str:
     """The filters as the daemon takes them (it filters; the package never filters again)."""
     domains = _domains(domain)  # once: an iterator is empty the second time
     _check_filters(domains or None, product_line, source, serial, name, address, host)
@@ -61,6 +61,10 @@ def _query(domain: Domains, product_line: Optional[str], source: Optional[str],
                        ("address", address), ("host", host)):
         if value:
             q.append((key, value))
+    if in_use is not None:
+        if not isinstance(in_use, bool):
+            raise ValueError(f"in_use must be True, False or None, not {in_use!r}")
+        q.append(("in-use", "true" if in_use else "false"))
     return ("?" + urllib.parse.urlencode(q)) if q else ""
 
 

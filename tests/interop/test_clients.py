@@ -1,0 +1,241 @@
+"""Who uses each camera (/v1/devices/{id}/clients, the device's `in-use`, ?in-use=)
+against real peers: the suite's d555 realdds server (tests/tools/realdds_server.py)
+and realdds clients in processes of their own (tests/tools/realdds_client.py, as an
+application using pyrealsense2.pyrealdds). A client that only makes a device is a
+client with no streams, one that streams Depth is listed with it, two clients of
+one camera are both listed and never counted for another camera; a clean exit
+takes the client away at once, a SIGKILL at its lease. The times are those of DDS
+discovery (asserted loosely, printed with pytest -s for the note)."""
+import json
+import os
+import queue
+import signal
+import subprocess
+import sys
+import time
+
+from conftest import TESTS_DIR, EventStream, wait_for
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "integration"))
+from api_util import validate_response  # noqa: E402
+
+CLI = os.path.join(os.environ["RSD_BUILD_DIR"], "client", "rs-discover")
+sys.path.insert(0, os.path.join(os.environ["RSD_SOURCE_DIR"], "client", "python", "src"))
+import rsdiscovery  # noqa: E402  (the package as shipped)
+
+LEASE = 3.0  # realdds announces a 3 s lease (realdds-wire.md)
+
+
+def d555(serial):
+    return {"name": "Intel RealSense D555", "serial": serial, "product-line": "D500", "product-id": "0B56",
+            "topic-root": f"realsense/D555_{serial}"}
+
+
+class Client:
+    def __init__(self, domain, info, name, streams=()):
+        args = [sys.executable, os.path.join(TESTS_DIR, "tools", "realdds_client.py"), "--domain", str(domain),
+                "--name", name, "--info", json.dumps(info)]
+        for s in streams:
+            args += ["--stream", s]
+        self.started = time.monotonic()
+        self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        while True:
+            line = self.proc.stdout.readline()
+            assert line, "realdds client exited"
+            if line.startswith("{"):
+                self.hello = json.loads(line)
+                break
+        self.ready = time.monotonic()
+        assert self.hello["ready"], self.hello
+
+    def quit(self):
+        self.proc.stdin.write("quit\n")
+        self.proc.stdin.flush()
+        self.proc.wait(10)
+
+    def kill(self):
+        self.proc.send_signal(signal.SIGKILL)
+        self.proc.wait()
+
+
+def clients(d, cam_id):
+    body = d.get_json(f"/v1/devices/{cam_id}/clients")
+    validate_response("/v1/devices/{id}/clients", 200, body)
+    return body
+
+
+def names(d, cam_id):
+    return sorted(c["name"] for c in clients(d, cam_id)["clients"])
+
+
+def device(d, cam_id):
+    return d.get_json(f"/v1/devices/{cam_id}")
+
+
+def changes_within(events, seconds):
+    """The `changed` events the stream brings within `seconds`."""
+    out, deadline = [], time.monotonic() + seconds
+    while (left := deadline - time.monotonic()) > 0:
+        try:
+            ev = events.events.get(timeout=left)
+        except queue.Empty:
+            break
+        if ev and ev.get("event") == "changed":
+            out.append(ev["json"])
+    return out
+
+
+def timed(predicate, what, timeout=10.0):
+    t0 = time.monotonic()
+    wait_for(predicate, timeout=timeout, interval=0.005, what=what)
+    return time.monotonic() - t0
+
+
+def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_server):
+    d = daemon([free_domain])
+    server = realdds_server(free_domain, [], name="d555-server")
+    x, y = d555("555777"), d555("555888")
+    server.command(cmd="add", info=x, spec="d555")
+    server.command(cmd="add", info=y, spec="d555")
+    xid, yid = (f"dds-{free_domain}-" + c["topic-root"].replace("/", ".") for c in (x, y))
+    wait_for(lambda: set(d.device_ids()) >= {xid, yid}, 20, what="both cameras")
+    assert clients(d, xid) == {"clients": [], "streams": {}}
+    assert "in-use" not in device(d, xid)
+
+    events = EventStream(d, query=f"?serial={x['serial']}")
+
+    # A client that only makes a device: a client with no streams.
+    a = Client(free_domain, x, "my-robot-app")
+    listed_a = timed(lambda: names(d, xid) == ["my-robot-app"], "the device-only client listed")
+    print(f"\ndevice-only client listed {listed_a * 1000:.0f} ms after it was ready, "
+          f"{(a.ready - a.started + listed_a) * 1000:.0f} ms after it started")
+    assert listed_a < 3.0  # loosely: the time is DDS discovery's, printed for the note
+    entry = clients(d, xid)["clients"][0]
+    assert entry["streams"] == [] and entry["vendor"] == "fast-dds" and entry["addresses"]
+    assert entry["guid"] != device(d, xid)["server"]["participant-guid"]
+    assert clients(d, xid)["streams"] == {}
+    assert device(d, xid)["in-use"] == {"clients": 1, "streaming": []}
+    # One `changed` event for its coming, however many endpoints it made.
+    ev = events.next(types=("changed",))
+    assert ev["json"]["in-use"] == {"clients": 1, "streaming": []}
+    assert changes_within(events, 1.0) == []
+    # A client of X is never one of Y.
+    assert clients(d, yid)["clients"] == [] and "in-use" not in device(d, yid)
+    assert [dev["id"] for dev in d.devices("?in-use=true")] == [xid]
+    assert yid in [dev["id"] for dev in d.devices("?in-use=false")]
+    assert xid not in [dev["id"] for dev in d.devices("?in-use=false")]
+
+    # The clients see it: rs-discover clients (table, --json), list's marker, Python.
+    cli = [CLI, "--endpoint", "unix:" + d.socket]
+    table = subprocess.run(cli + ["clients", x["serial"]], capture_output=True, text=True, timeout=10)
+    assert table.returncode == 0, table.stderr
+    assert "my-robot-app" in table.stdout and entry["guid"] in table.stdout and "streaming" not in table.stdout
+    as_json = subprocess.run(cli + ["clients", "--json", xid], capture_output=True, text=True, timeout=10)
+    assert json.loads(as_json.stdout) == clients(d, xid)
+    listed = subprocess.run(cli + ["list"], capture_output=True, text=True, timeout=10).stdout
+    assert [ln for ln in listed.splitlines() if x["serial"] in ln and "in use" in ln]
+    assert not [ln for ln in listed.splitlines() if y["serial"] in ln and "in use" in ln]
+    py = rsdiscovery.Client("unix:" + d.socket).clients(xid)
+    assert [c.name for c in py.clients] == ["my-robot-app"] and py.clients[0].streams == () and py.streams == {}
+    assert [dev.id for dev in rsdiscovery.Client("unix:" + d.socket).list_devices(in_use=True)] == [xid]
+    assert xid not in [dev.id for dev in rsdiscovery.list_devices(endpoint="unix:" + d.socket, in_use=False)]
+
+    # A second client, streaming Depth.
+    b = Client(free_domain, x, "depth-viewer", streams=["Depth"])
+    seen_b = timed(lambda: len(clients(d, xid)["clients"]) == 2, "the streaming client's endpoints")
+    print(f"streaming client's endpoints seen {seen_b * 1000:.0f} ms after it was ready")
+    listed_b = timed(lambda: names(d, xid) == ["depth-viewer", "my-robot-app"], "the streaming client listed")
+    wait_for(lambda: clients(d, xid)["streams"] == {"Depth": 1}, what="Depth streamed")
+    print(f"streaming client listed {listed_b * 1000:.0f} ms after its endpoints were seen")
+    assert seen_b < 3.0
+    by_name = {c["name"]: c for c in clients(d, xid)["clients"]}
+    assert by_name["depth-viewer"]["streams"] == ["Depth"] and by_name["my-robot-app"]["streams"] == []
+    assert device(d, xid)["in-use"] == {"clients": 2, "streaming": ["Depth"]}
+    table = subprocess.run(cli + ["clients", xid], capture_output=True, text=True, timeout=10).stdout
+    assert "depth-viewer" in table and "streaming: Depth (1 reader)" in table
+    listed = subprocess.run(cli + ["list"], capture_output=True, text=True, timeout=10).stdout
+    assert [ln for ln in listed.splitlines() if x["serial"] in ln and "in use: Depth" in ln]
+    py = rsdiscovery.Client("unix:" + d.socket).clients(xid)
+    assert {c.name: c.streams for c in py.clients}["depth-viewer"] == ("Depth",) and py.streams == {"Depth": 1}
+    assert clients(d, yid)["clients"] == []
+
+    # A clean exit: gone within 1 s. SIGKILL: gone at its lease.
+    t0 = time.monotonic()
+    b.quit()
+    gone_b = timed(lambda: names(d, xid) == ["my-robot-app"], "the streaming client gone")
+    print(f"clean exit: gone {(time.monotonic() - t0) * 1000:.0f} ms after quit")
+    assert gone_b < 3.0
+    assert device(d, xid)["in-use"] == {"clients": 1, "streaming": []}
+    t0 = time.monotonic()
+    a.kill()
+    timed(lambda: names(d, xid) == [], "the killed client gone", timeout=LEASE + 10)
+    killed = time.monotonic() - t0
+    print(f"SIGKILL: gone {killed * 1000:.0f} ms after the kill (lease {LEASE} s)")
+    assert killed < LEASE + 2.0
+    assert "in-use" not in device(d, xid)
+    events.close()
+
+
+def test_clients_of_a_usb_or_unknown_device(free_domain, daemon):
+    d = daemon([free_domain])
+    status, _, body = d.request("/v1/devices/nobody/clients")
+    assert status == 404, body
+    status, _, body = d.request("/v1/devices?in-use=maybe")
+    assert status == 400, body
+    r = subprocess.run([CLI, "--endpoint", "unix:" + d.socket, "clients", "nobody"], capture_output=True, text=True,
+                       timeout=10)
+    assert r.returncode == 1 and "nobody" in r.stderr, (r.returncode, r.stderr)
+    try:
+        rsdiscovery.Client("unix:" + d.socket).clients("nobody")
+        raise AssertionError("no NotFound")
+    except rsdiscovery.NotFound:
+        pass
+
+
+LIBREALSENSE_STREAMING = """
+import json, sys
+import pyrealsense2 as rs
+import rsdiscovery.librealsense
+ctx, dev = rsdiscovery.librealsense.device(sys.argv[1], timeout=10)
+pipe = rs.pipeline(ctx)
+cfg = rs.config()
+cfg.enable_device(sys.argv[1])
+cfg.enable_stream(rs.stream.depth)
+pipe.start(cfg)
+pipe.wait_for_frames(5000)
+print(json.dumps({"streaming": True}), flush=True)
+sys.stdin.readline()
+pipe.stop()
+"""
+
+
+def test_librealsense_streaming_through_a_pipeline_is_a_client(free_domain, daemon, realdds_server):
+    d = daemon([free_domain])
+    server = realdds_server(free_domain, [], name="d555-server")
+    x = d555("555999")
+    server.command(cmd="add", info=x, spec="d555")
+    xid = f"dds-{free_domain}-" + x["topic-root"].replace("/", ".")
+    wait_for(lambda: xid in d.device_ids(), 20, what="the camera")
+    env = dict(os.environ, PYTHONPATH=os.path.join(os.environ["RSD_SOURCE_DIR"], "client", "python", "src"),
+               RS_DISCOVERY_ENDPOINT="unix:" + d.socket)
+    proc = subprocess.Popen([sys.executable, "-c", LIBREALSENSE_STREAMING, x["serial"]], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        while not (line := proc.stdout.readline()).startswith("{"):
+            assert line, "the librealsense program ended"
+        assert json.loads(line) == {"streaming": True}
+        wait_for(lambda: clients(d, xid)["streams"] == {"Depth": 1}, what="librealsense streaming Depth")
+        found = clients(d, xid)["clients"]
+        assert len(found) == 1 and found[0]["streams"] == ["Depth"] and found[0]["vendor"] == "fast-dds"
+        assert device(d, xid)["in-use"] == {"clients": 1, "streaming": ["Depth"]}
+        proc.stdin.write("quit\n")
+        proc.stdin.flush()
+        t0 = time.monotonic()
+        assert proc.wait(20) == 0
+        wait_for(lambda: clients(d, xid)["clients"] == [], timeout=LEASE + 10, what="librealsense gone")
+        print(f"\nlibrealsense gone {(time.monotonic() - t0) * 1000:.0f} ms after its pipeline stopped")
+        assert "in-use" not in device(d, xid)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()

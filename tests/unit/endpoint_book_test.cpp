@@ -1,0 +1,207 @@
+// EndpointBook and ParticipantBook::clients: who uses a camera, from made-up
+// endpoints as DCPSPublication/DCPSSubscription give them (the topic names are
+// the ones a live pyrealdds server and client use), and the bounds a flood of
+// endpoints or of long topic names stays within (seeded random runs).
+#include "dds/endpoint_book.hpp"
+#include "dds/participant_book.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <string>
+
+using rsd::dds::EndpointBook;
+using rsd::dds::EndpointLimits;
+using rsd::dds::EndpointRefusal;
+using rsd::dds::ParticipantBook;
+using rsd::dds::ParticipantSighting;
+namespace topics = rsd::dds::realdds_topics;
+
+namespace {
+
+const std::string kRoot = "realsense/D555_555777";
+const std::string kServer = "010f78fd.d02bf8d2.00000000.000001c1";
+const std::string kApp = "010f78fd.bd2b6229.00000000.000001c1";
+const std::string kOther = "0110abcd.00000001.00000002.000001c1";
+
+std::string ep(const std::string& participant, int n) {
+  return participant.substr(0, 27) + std::to_string(100000 + n);
+}
+
+// What a realdds server with Depth, Infrared 1 and Color has on the wire.
+void server(ParticipantBook& book, const std::string& root = kRoot, const std::string& guid = kServer) {
+  book.endpoint_alive(guid, ep(guid, 1), root + "/notification", false, "T0");
+  book.endpoint_alive(guid, ep(guid, 2), "rt/" + root + "_Depth", false, "T0");
+  book.endpoint_alive(guid, ep(guid, 3), "rt/" + root + "_Infrared 1", false, "T0");
+  book.endpoint_alive(guid, ep(guid, 4), "rt/" + root + "_Color", false, "T0");
+  book.endpoint_alive(guid, ep(guid, 5), root + "/control", true, "T0");
+  book.endpoint_alive(guid, ep(guid, 6), "realsense/device-info", false, "T0");
+}
+
+// pyrealdds' dds.device(p, info): a control writer and a notification reader.
+void device_of(ParticipantBook& book, const std::string& guid, const std::string& root, const std::string& now) {
+  book.endpoint_alive(guid, ep(guid, 1), root + "/control", false, now);
+  book.endpoint_alive(guid, ep(guid, 2), root + "/notification", true, now);
+}
+
+}  // namespace
+
+TEST(RealddsTopics, RootsOfEachKindOfTopic) {
+  EXPECT_EQ(topics::roots_of("realsense/D555_1/notification"), std::vector<std::string>{"realsense/D555_1"});
+  EXPECT_EQ(topics::roots_of("realsense/D555_1/control"), std::vector<std::string>{"realsense/D555_1"});
+  EXPECT_EQ(topics::roots_of("realsense/D555_1/metadata"), std::vector<std::string>{"realsense/D555_1"});
+  // A stream topic names its root only up to one of its '_': every candidate.
+  EXPECT_EQ(topics::roots_of("rt/realsense/D555_1_Infrared 1"),
+            (std::vector<std::string>{"realsense/D555", "realsense/D555_1"}));
+  EXPECT_TRUE(topics::roots_of("realsense/device-info").empty());
+  EXPECT_TRUE(topics::roots_of("rt/_").empty());
+  EXPECT_TRUE(topics::roots_of("/notification").empty());
+}
+
+TEST(ParticipantBookClients, ADeviceOnlyIsAClientWithNoStreams) {
+  ParticipantBook book;
+  server(book);
+  ParticipantSighting app;
+  app.guid = kApp;
+  app.name = "my-robot-app";
+  app.addresses = {"192.0.2.7"};
+  book.alive(app, "T1");
+  device_of(book, kApp, kRoot, "T1");
+  const auto c = book.clients(kRoot, {kServer});
+  ASSERT_EQ(c.clients.size(), 1u);
+  EXPECT_EQ(c.clients[0].guid, kApp);
+  EXPECT_EQ(c.clients[0].name, "my-robot-app");
+  EXPECT_EQ(c.clients[0].addresses, std::vector<std::string>{"192.0.2.7"});
+  EXPECT_EQ(c.clients[0].vendor, rsd::model::Vendor::fast_dds);
+  EXPECT_EQ(c.clients[0].since, "T1");
+  EXPECT_TRUE(c.clients[0].streams.empty());
+  EXPECT_TRUE(c.streams.empty());
+  EXPECT_EQ(rsd::model::summary_of(c), (rsd::model::InUse{1, {}}));
+  // Without naming its server, the server is a user of its own topics: the caller's job.
+  EXPECT_EQ(book.clients(kRoot, {}).clients.size(), 2u);
+}
+
+TEST(ParticipantBookClients, AStreamReaderStreamsAndGoesWithItsParticipant) {
+  ParticipantBook book;
+  server(book);
+  device_of(book, kApp, kRoot, "T1");
+  book.endpoint_alive(kApp, ep(kApp, 3), "rt/" + kRoot + "_Depth", true, "T2");
+  device_of(book, kOther, kRoot, "T3");
+  book.endpoint_alive(kOther, ep(kOther, 3), "rt/" + kRoot + "_Depth", true, "T3");
+  book.endpoint_alive(kOther, ep(kOther, 4), "rt/" + kRoot + "_Infrared 1", true, "T3");
+  auto c = book.clients(kRoot, {kServer});
+  ASSERT_EQ(c.clients.size(), 2u);
+  EXPECT_EQ(c.clients[0].guid, kApp);  // by GUID
+  EXPECT_EQ(c.clients[0].streams, std::vector<std::string>{"Depth"});
+  EXPECT_EQ(c.clients[0].since, "T1");  // its first endpoint on the camera
+  EXPECT_EQ(c.clients[1].streams, (std::vector<std::string>{"Depth", "Infrared 1"}));
+  EXPECT_EQ(c.streams, (std::map<std::string, std::size_t>{{"Depth", 2}, {"Infrared 1", 1}}));
+  EXPECT_EQ(rsd::model::summary_of(c), (rsd::model::InUse{2, {"Depth", "Infrared 1"}}));
+
+  // The stream closed: its reader goes, the client stays.
+  EXPECT_EQ(book.endpoint_gone(kOther, ep(kOther, 4)), "rt/" + kRoot + "_Infrared 1");
+  EXPECT_EQ(rsd::model::summary_of(book.clients(kRoot, {kServer})), (rsd::model::InUse{2, {"Depth"}}));
+  // Its participant gone (lease or goodbye): every endpoint with it.
+  const auto touched = book.gone(kOther, "T4");
+  EXPECT_EQ(touched.size(), 3u);
+  EXPECT_EQ(rsd::model::summary_of(book.clients(kRoot, {kServer})), (rsd::model::InUse{1, {"Depth"}}));
+  EXPECT_EQ(book.endpoints().count(kOther), 0u);
+}
+
+TEST(ParticipantBookClients, AClientOfOneCameraIsNeverCountedForAnother) {
+  ParticipantBook book;
+  const std::string other_root = "realsense/D555_5557770";  // the first one's root is its prefix
+  server(book);
+  server(book, other_root, kOther);
+  device_of(book, kApp, other_root, "T1");
+  book.endpoint_alive(kApp, ep(kApp, 3), "rt/" + other_root + "_Depth", true, "T1");
+  EXPECT_TRUE(book.clients(kRoot, {kServer}).clients.empty());
+  EXPECT_EQ(book.clients(other_root, {kOther}).clients.size(), 1u);
+  EXPECT_EQ(book.clients(other_root, {kOther}).streams.at("Depth"), 1u);
+}
+
+TEST(EndpointBook, RefusesBeyondItsLimitsAndCountsWhy) {
+  EndpointLimits limits;
+  limits.per_participant = 3;
+  limits.per_domain = 5;
+  limits.topic_length = 16;
+  limits.topics = 2;
+  EndpointBook book(limits);
+  EXPECT_EQ(book.alive("p1", "e1", "a", false, "T"), EndpointRefusal::none);
+  EXPECT_EQ(book.alive("p1", "e1", "a", false, "T"), EndpointRefusal::none);  // the same again: nothing new
+  EXPECT_EQ(book.alive("p1", "e2", std::string(17, 'x'), false, "T"), EndpointRefusal::topic_too_long);
+  EXPECT_EQ(book.alive("p1", "e3", "b", true, "T"), EndpointRefusal::none);
+  EXPECT_EQ(book.alive("p1", "e4", "a", true, "T"), EndpointRefusal::participant_limit);
+  EXPECT_EQ(book.alive("p2", "e5", "c", true, "T"), EndpointRefusal::topic_limit);  // kept, without its topic
+  EXPECT_EQ(book.alive("p2", "e6", "a", true, "T"), EndpointRefusal::none);
+  EXPECT_EQ(book.alive("p3", "e7", "a", true, "T"), EndpointRefusal::domain_limit);
+  EXPECT_EQ(book.total(), 5u);
+  EXPECT_EQ(book.count("p1"), 3u);
+  EXPECT_EQ(book.topics(), 2u);
+  EXPECT_EQ(book.refused(EndpointRefusal::topic_too_long), 1u);
+  EXPECT_EQ(book.refused(EndpointRefusal::participant_limit), 1u);
+  EXPECT_EQ(book.refused(EndpointRefusal::topic_limit), 1u);
+  EXPECT_EQ(book.refused(EndpointRefusal::domain_limit), 1u);
+  EXPECT_STREQ(rsd::dds::to_string(EndpointRefusal::domain_limit), "domain-endpoint-limit");
+  EXPECT_EQ(book.gone("p1", "e2"), "");  // kept without its topic
+  EXPECT_EQ(book.gone("p1", "e3"), "b");
+  EXPECT_EQ(book.topics(), 1u);
+  book.participant_gone("p2");
+  book.participant_gone("p1");
+  EXPECT_EQ(book.total(), 0u);
+  EXPECT_EQ(book.topics(), 0u);
+}
+
+// A flood: endpoints of many participants, long and ever new topic names, camera
+// topics among them, coming and going at random. The book never holds more than
+// its limits, its counts agree with what is alive, and once every participant is
+// gone nothing is left.
+TEST(EndpointBook, AFloodStaysWithinItsBounds) {
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    std::mt19937 rng(seed);
+    EndpointLimits limits;
+    limits.per_participant = 1 + rng() % 40;
+    limits.per_domain = 50 + rng() % 500;
+    limits.topic_length = 8 + rng() % 300;
+    limits.topics = 1 + rng() % 200;
+    ParticipantBook book(4096, 256, limits);
+    std::map<std::string, std::set<std::string>> alive;  // what the book accepted
+    for (int step = 0; step < 5000; ++step) {
+      const std::string participant = "010f0000.0000" + std::to_string(rng() % 60) + ".00000000.000001c1";
+      const std::string endpoint = participant.substr(0, 27) + std::to_string(rng() % 100);
+      const auto what = rng() % 10;
+      if (what < 6) {
+        std::string topic;
+        switch (rng() % 4) {
+          case 0: topic = kRoot + "/control"; break;
+          case 1: topic = "rt/" + kRoot + "_" + std::string(1 + rng() % 400, 'S'); break;
+          case 2: topic = std::string(rng() % 2000, 'x'); break;
+          default: topic = "t" + std::to_string(rng()); break;
+        }
+        const auto r = book.endpoint_alive(participant, endpoint, topic, rng() % 2, "T");
+        if (r != EndpointRefusal::participant_limit && r != EndpointRefusal::domain_limit)
+          alive[participant].insert(endpoint);  // kept, with its topic or without
+      } else if (what < 9) {
+        book.endpoint_gone(participant, endpoint);
+        alive[participant].erase(endpoint);
+      } else {
+        book.gone(participant, "T");
+        alive.erase(participant);
+      }
+      const auto& e = book.endpoints();
+      ASSERT_LE(e.total(), limits.per_domain) << "seed " << seed;
+      ASSERT_LE(e.topics(), limits.topics) << "seed " << seed;
+      ASSERT_LE(e.count(participant), limits.per_participant) << "seed " << seed;
+      ASSERT_EQ(e.count(participant), alive[participant].size()) << "seed " << seed << " step " << step;
+      const auto c = book.clients(kRoot, {});
+      ASSERT_LE(c.clients.size(), 60u);
+      for (const auto& [stream, readers] : c.streams) ASSERT_LE(stream.size() + 3 + kRoot.size() + 1, limits.topic_length);
+    }
+    std::size_t sum = 0;
+    for (const auto& [p, set] : alive) sum += set.size();
+    EXPECT_EQ(book.endpoints().total(), sum);
+    for (int p = 0; p < 60; ++p) book.gone("010f0000.0000" + std::to_string(p) + ".00000000.000001c1", "T");
+    EXPECT_EQ(book.endpoints().total(), 0u);
+    EXPECT_EQ(book.endpoints().topics(), 0u);
+  }
+}
