@@ -11,6 +11,7 @@ DaemonOptions daemon_options(const Config& config, std::string_view cyclone_uri)
   log::parse_level(config.log_level, out.log_level);  // validated with the Config
   out.domains = config.domains;
   out.usb = config.usb;
+  out.expected = config.expect;
 
   auto& session = out.session;
   session.participant_name = config.participant_name;

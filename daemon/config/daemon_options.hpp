@@ -28,6 +28,8 @@ struct DaemonOptions {
   net::InterfaceRules interfaces;
   // The listeners and their limits; the sockets systemd passes are main()'s to add.
   api::ApiOptions api;
+  // The cameras this host is built with (Service hands them to its ExpectedSet).
+  std::vector<model::ExpectedCamera> expected;
 };
 
 // `cyclone_uri` stands for $CYCLONEDDS_URI, which counts where the configuration

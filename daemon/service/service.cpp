@@ -50,7 +50,7 @@ Service::Service(const SharedTable& table, DomainSet& domains, UsbWatch& usb, Ex
                  std::vector<std::string> args)
     : table_(table), domains_(domains), usb_(usb), expected_(expected), config_(std::move(config)),
       args_(std::move(args)) {
-  expected_.set(config_.expect);
+  expected_.set(daemon_options(config_).expected);
   if (notifier_.active())
     log::debug("service: notifying the service manager" +
                (notifier_.watchdog() ? "; watchdog every " + std::to_string(notifier_.watchdog()->count()) + " us"
@@ -180,7 +180,7 @@ void Service::reload() {
     if (key.reload == Reload::live) key.copy(next, config_);
   config_.domains = domains_.ids();
   config_.config_file = next.config_file;
-  expected_.set(config_.expect);
+  expected_.set(options.expected);
   counted_generation_ = ~std::uint64_t{0};  // STATUS= counts the new list
 
   note_ = change.failed.empty() ? "" : "reload could not join " + join(change.failed, "; ");

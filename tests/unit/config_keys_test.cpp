@@ -141,10 +141,10 @@ TEST(ConfigKeys, TheFileSetsEveryKeyAndFlagsWinForEveryKey) {
   EXPECT_TRUE(rsd::changed_keys(both, parse(over_none).config).empty());
   // Each flag's value, not the file's (usb: both say off; share-usb: both on).
   EXPECT_EQ(rsd::changed_keys(both, from_file), (std::vector<std::string>{
-      "domains", "socket", "http", "allowed-hosts", "max-clients", "participant-name", "interfaces",
+      "domains", "socket", "socket-group", "http", "allowed-hosts", "max-clients", "participant-name", "interfaces",
       "exclude-interfaces", "cyclonedds-config", "log-level", "max-devices-per-participant",
       "max-devices-per-domain", "max-writers-per-participant", "max-writers-per-domain", "describe-timeout",
-      "describe-eagerly"}));
+      "describe-eagerly", "expect"}));
   EXPECT_EQ(both.domains, (std::vector<int>{3, 4}));
   EXPECT_EQ(both.allowed_hosts, (std::vector<std::string>{"b.example", "c.example"}));
   EXPECT_TRUE(both.exclude_interfaces.empty());
@@ -221,9 +221,10 @@ std::string options_text(const rsd::DaemonOptions& o) {
   list(o.interfaces.include);
   list(o.interfaces.exclude);
   const auto& a = o.api;
-  out << a.unix_socket << ';' << a.http_host << ';' << a.http_port << ';' << a.http_configured << ';'
+  out << a.unix_socket << ';' << a.unix_socket_gid << ';' << a.http_host << ';' << a.http_port << ';' << a.http_configured << ';'
       << a.max_connections << ';';
   list(a.allowed_hosts);
+  for (const auto& e : o.expected) out << e.name << '=' << e.key() << ',';
   return out.str();
 }
 
