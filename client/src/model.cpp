@@ -7,6 +7,7 @@
 #include "rsd_model/description.hpp"
 #include "rsd_model/expected.hpp"
 #include "rsd_model/participant.hpp"
+#include "rsd_model/removal.hpp"
 #include "rsd_model/status.hpp"
 
 namespace rsdiscovery {
@@ -293,13 +294,21 @@ Expected expected_from_json(const json& doc) {
 
 bool same_device(const json& a, const json& b) {
   if (!a.is_object() || !b.is_object()) return a == b;
-  if (a.size() != b.size()) return false;
-  for (auto it = a.begin(); it != a.end(); ++it) {
-    if (it.key() == "last-seen" || it.key() == "first-seen") continue;
-    auto other = b.find(it.key());
-    if (other == b.end() || *other != it.value()) return false;
-  }
-  return true;
+  // Not the camera's: the times move on every announcement, and an event's reason or
+  // arrival rides on the document it carries, not on the one a list gives.
+  const auto ignored = [](const std::string& k) {
+    return k == rsd::model::key::last_seen || k == rsd::model::key::first_seen || k == rsd::model::key::reason ||
+           k == rsd::model::key::arrival || k == rsd::model::key::away_since;
+  };
+  const auto covered = [&](const json& x, const json& y) {
+    for (auto it = x.begin(); it != x.end(); ++it) {
+      if (ignored(it.key())) continue;
+      auto other = y.find(it.key());
+      if (other == y.end() || *other != it.value()) return false;
+    }
+    return true;
+  };
+  return covered(a, b) && covered(b, a);
 }
 
 bool reports_complete(const json& doc) {

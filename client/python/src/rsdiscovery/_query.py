@@ -68,12 +68,13 @@ def _query(domain: Domains, product_line: Optional[str], source: Optional[str],
     return ("?" + urllib.parse.urlencode(q)) if q else ""
 
 
-_NOT_NEWS = ("last-seen", "first-seen")
+_NOT_NEWS = ("last-seen", "first-seen", "reason", "arrival", "away-since")
 
 
 def _same(a: Mapping[str, Any], b: Mapping[str, Any]) -> bool:
-    """Equal apart from last-seen, which moves without being news, and first-seen, which a
-    restarted daemon sets anew for a camera that never went away."""
+    """Equal apart from last-seen, which moves without being news, first-seen, which a
+    restarted daemon sets anew for a camera that never went away, and what an event
+    says of its change (a removal's reason, an addition's arrival), which no list has."""
     return {k: v for k, v in a.items() if k not in _NOT_NEWS} == {k: v for k, v in b.items() if k not in _NOT_NEWS}
 
 
