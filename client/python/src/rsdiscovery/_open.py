@@ -126,6 +126,8 @@ class StillListed:
             if self._client is None:
                 self._client = Client(self._endpoint, timeout=1.0, complete_timeout=0)
             status, body = self._client._request(self._path)
+            if status == 410:  # it was listed and left: the daemon keeps it as gone
+                return True
             if status != 404:
                 return False
             doc = json.loads(body)
