@@ -74,7 +74,9 @@ def test_every_documented_counter_is_there_from_the_start(daemon, free_domain):
     the spec lists has its samples at 0 in the first scrape, before anything happened."""
     description = spec()["paths"]["/metrics"]["get"]["description"]
     documented = set(re.findall(r"\b((?:rsd|process)_[a-z_]+)", description))
-    d = daemon([free_domain])
+    # One expected camera, never there: its rsd_expected_camera_present is 0 from the start
+    # (with nothing expected the family is absent, as the USB ones are under --no-usb).
+    d = daemon([free_domain], extra=["--expect", "front=000000000001"])
     _, _, body = request(d.socket, "/metrics")  # nothing happened but the fixture's readiness checks
     text = body.decode()
     types = dict(line.split()[2:4] for line in text.splitlines() if line.startswith("# TYPE "))
