@@ -1,6 +1,7 @@
 // A camera's clients and its in-use summary as JSON, both ways (rsd_model/clients.hpp).
 #include "rsd_model/clients.hpp"
 
+#include "peer_json.hpp"
 #include "read_json.hpp"
 
 namespace rsd::model {
@@ -10,14 +11,6 @@ namespace {
 namespace ckey {
 constexpr const char* clients = "clients";
 constexpr const char* streams = "streams";
-constexpr const char* guid = "guid";
-constexpr const char* name = "name";
-constexpr const char* vendor = "vendor";
-constexpr const char* vendor_id = "vendor-id";
-constexpr const char* addresses = "addresses";
-constexpr const char* host = "host";
-constexpr const char* process = "process";
-constexpr const char* pid = "pid";
 constexpr const char* since = "since";
 }  // namespace ckey
 
@@ -28,14 +21,7 @@ Client client_from_json(const nlohmann::json& doc) {
   using namespace read_json;
   want_object(doc, kClient);
   Client c;
-  c.guid = text(doc, ckey::guid, kClient);
-  c.name = text(doc, ckey::name, kClient);
-  c.vendor = parse_vendor(text(doc, ckey::vendor, kClient)).value_or(Vendor::other);
-  c.vendor_id = text(doc, ckey::vendor_id, kClient);
-  c.addresses = texts(doc, ckey::addresses, kClient);
-  if (doc.contains(ckey::host)) c.host = text(doc, ckey::host, kClient);
-  if (doc.contains(ckey::process)) c.process = text(doc, ckey::process, kClient);
-  c.pid = pid(doc, ckey::pid, kClient);
+  peer_json::read(doc, c, kClient);
   c.since = text(doc, ckey::since, kClient);
   c.streams = texts(doc, ckey::streams, kClient);
   return c;
@@ -52,13 +38,8 @@ InUse summary_of(const DeviceClients& c) {
 }
 
 nlohmann::json to_json(const Client& c) {
-  nlohmann::json doc = {{ckey::guid, c.guid},           {ckey::name, c.name},
-                        {ckey::vendor, to_string(c.vendor)}, {ckey::vendor_id, c.vendor_id},
-                        {ckey::addresses, c.addresses}, {ckey::since, c.since},
-                        {ckey::streams, c.streams}};
-  if (c.host) doc[ckey::host] = *c.host;
-  if (c.process) doc[ckey::process] = *c.process;
-  if (c.pid) doc[ckey::pid] = *c.pid;
+  nlohmann::json doc = {{ckey::since, c.since}, {ckey::streams, c.streams}};
+  peer_json::write(doc, c);
   return doc;
 }
 

@@ -1,5 +1,6 @@
 #include "rsd_model/participant.hpp"
 
+#include "peer_json.hpp"
 #include "read_json.hpp"
 
 namespace rsd::model {
@@ -8,14 +9,6 @@ namespace {
 
 namespace key {
 constexpr const char* domain = "domain";
-constexpr const char* guid = "guid";
-constexpr const char* name = "name";
-constexpr const char* vendor = "vendor";
-constexpr const char* vendor_id = "vendor-id";
-constexpr const char* addresses = "addresses";
-constexpr const char* host = "host";
-constexpr const char* process = "process";
-constexpr const char* pid = "pid";
 constexpr const char* lease_seconds = "lease-seconds";
 constexpr const char* state = "state";
 constexpr const char* first_seen = "first-seen";
@@ -69,11 +62,6 @@ Vendor vendor_of(std::string_view vendor_id) {
 
 nlohmann::json to_json(const Participant& p) {
   nlohmann::json doc = {{key::domain, p.domain},
-                        {key::guid, p.guid},
-                        {key::name, p.name},
-                        {key::vendor, to_string(p.vendor)},
-                        {key::vendor_id, p.vendor_id},
-                        {key::addresses, p.addresses},
                         {key::state, to_string(p.state)},
                         {key::first_seen, p.first_seen},
                         {key::last_seen, p.last_seen},
@@ -83,9 +71,7 @@ nlohmann::json to_json(const Participant& p) {
                         {key::never_announced, p.never_announced},
                         {key::topic_roots, p.topic_roots},
                         {key::endpoints, p.endpoints}};
-  if (p.host) doc[key::host] = *p.host;
-  if (p.process) doc[key::process] = *p.process;
-  if (p.pid) doc[key::pid] = *p.pid;
+  peer_json::write(doc, p);
   if (p.lease_seconds) doc[key::lease_seconds] = *p.lease_seconds;
   return doc;
 }
@@ -98,15 +84,7 @@ Participant participant_from_json(const nlohmann::json& doc) {
   if (!domain.is_number_integer() || domain.get<std::int64_t>() < 0 || domain.get<std::int64_t>() > 232)
     throw MalformedDocument("a participant entry's \"domain\" is not a domain id");
   p.domain = domain.get<int>();
-  p.guid = text(doc, key::guid, kWhat);
-  p.name = text(doc, key::name, kWhat);
-  // A vendor this client does not know yet (a newer daemon's) reads as "other".
-  p.vendor = parse_vendor(text(doc, key::vendor, kWhat)).value_or(Vendor::other);
-  p.vendor_id = text(doc, key::vendor_id, kWhat);
-  p.addresses = texts(doc, key::addresses, kWhat);
-  if (doc.contains(key::host)) p.host = text(doc, key::host, kWhat);
-  if (doc.contains(key::process)) p.process = text(doc, key::process, kWhat);
-  p.pid = read_json::pid(doc, key::pid, kWhat);
+  peer_json::read(doc, p, kWhat);
   if (auto it = doc.find(key::lease_seconds); it != doc.end()) {
     if (!it->is_number()) throw MalformedDocument("a participant entry's \"lease-seconds\" is not a number");
     p.lease_seconds = it->get<double>();
