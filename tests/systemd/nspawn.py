@@ -39,7 +39,7 @@ CONTAINER_PATH = "/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin"
 # packages are an upgrade of it. Move both on at the next release.
 PREVIOUS_COMMIT = "1447030974492fa30cf8f5234b063889bc125b62"
 PREVIOUS_VERSION = "0.1.0~prev1"
-BUILD_TOOLS = ["build-essential", "debhelper", "dpkg-dev", "fakeroot", "git"]
+BUILD_TOOLS = ["build-essential", "debhelper", "dpkg-dev", "fakeroot", "git", "ccache"]
 # What the booted system gets: this tree's daemon, CLI and both client libraries
 # (the -dev package is checked on the host, by tests/packaging), and the previous
 # release's packages to upgrade from.
@@ -91,11 +91,16 @@ def build_debs(tree, out, suite=None, env=None):
     if suite is None:
         sh(os.path.join(tree, "packaging", "build-deb"), out, timeout=2400, env=dict(os.environ, **env))
     else:
+        # The container's compiler cache is kept beside the rootfs, one per suite
+        # (build-deb's RSD_DEB_CCACHE): the build of the last run serves this one.
+        cache = os.path.join(CACHE_DIR, "ccache", suite)
+        os.makedirs(cache, exist_ok=True)
+        env.update(RSD_DEB_CCACHE="1", CCACHE_DIR="/ccache")
         root = Container(rootfs(suite, BUILD_TOOLS + build_depends(tree)), name="rsd-build")
         try:
             r = subprocess.run(
                 ["systemd-nspawn", "-q", "-D", root.dir, "--private-network", *nspawn_register_args(),
-                 f"--bind-ro={tree}:/src", f"--bind={out}:/out", "--chdir=/src",
+                 f"--bind-ro={tree}:/src", f"--bind={out}:/out", f"--bind={cache}:/ccache", "--chdir=/src",
                  *[f"--setenv={k}={v}" for k, v in env.items()],
                  "/src/packaging/build-deb", "/out"],
                 capture_output=True, text=True, timeout=2400, stdin=subprocess.DEVNULL)
