@@ -1,7 +1,7 @@
 // The API's routes, spelled once: method, path pattern (as proto/openapi.yaml spells
 // it), handler and whether it may block. Registration with httplib, 404/405 and
 // `Allow`, the known paths and the blocking pool's choice all read this table, and
-// tests/integration/test_routes_spec.py holds it against the spec.
+// tests/api/test_routes_spec.py holds it against the spec.
 #pragma once
 
 #include <cstddef>

@@ -142,7 +142,7 @@ def test_default_socket_of_a_user_without_runtime_dir_is_found_by_both_clients(d
 
 
 def test_stream_messages_and_errors_validate_against_the_spec(daemon, domain):
-    sys.path.insert(0, os.path.join(SOURCE, "tests", "integration"))
+    sys.path.insert(0, os.path.join(SOURCE, "tests", "api"))
     from api_util import SSEStream, schema_validator, validate_response
 
     d = daemon([domain])

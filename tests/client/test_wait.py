@@ -13,7 +13,7 @@ from conftest import EventStream, device_info, wait_for
 from client_util import CLI, DOMAIN_RANGE, SOURCE, rs_discover
 
 sys.path.insert(0, os.path.join(SOURCE, "client", "python", "src"))
-sys.path.insert(0, os.path.join(SOURCE, "tests", "integration"))
+sys.path.insert(0, os.path.join(SOURCE, "tests", "api"))
 import rsdiscovery  # noqa: E402
 from api_util import validate_response  # noqa: E402
 

@@ -16,7 +16,7 @@ import time
 
 from conftest import TESTS_DIR, EventStream, wait_for
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "integration"))
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "api"))
 from api_util import validate_response  # noqa: E402
 
 CLI = os.path.join(os.environ["RSD_BUILD_DIR"], "client", "rs-discover")

@@ -14,7 +14,7 @@ from camera_spec import SPEC, TYPE, WIRE_FORMAT
 from conftest import EventStream, device_info, wait_for
 from test_realdds import dds_id
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "integration"))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "api"))
 from api_util import spec  # noqa: E402  (the spec checks live with the API tests)
 from openapi_schema_validator import OAS30Validator  # noqa: E402
 

@@ -11,7 +11,7 @@ import time
 
 from conftest import device_info, wait_for
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "integration"))
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "api"))
 from api_util import validate_response  # noqa: E402  (the spec checks live with the API tests)
 
 

@@ -20,7 +20,7 @@ from conftest import TESTS_DIR, JsonLinesProcess, wait_for
 from sharebed import D435, D455, note_time, site  # noqa: F401 (site: the fixture)
 from usbbed import in_umockdev
 
-sys.path.insert(0, os.path.join(TESTS_DIR, "integration"))
+sys.path.insert(0, os.path.join(TESTS_DIR, "api"))
 sys.path.insert(0, os.path.join(TESTS_DIR, "client"))
 sys.path.insert(0, os.path.join(os.path.dirname(TESTS_DIR), "client", "python", "src"))
 from api_util import validate_response  # noqa: E402

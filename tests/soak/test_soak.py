@@ -17,7 +17,7 @@ import pytest
 
 # The API suite's HTTP helpers and the USB suite's emulated bus.
 _TESTS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path[:0] = [os.path.join(_TESTS, "integration"), os.path.join(_TESTS, "usb")]
+sys.path[:0] = [os.path.join(_TESTS, "api"), os.path.join(_TESTS, "usb")]
 
 from conftest import SANITIZED, Daemon, DomainLocks, RealddsServer, device_info, free_port, rss_kb, wait_for
 from api_util import SSEStream, request  # noqa: E402

@@ -14,7 +14,7 @@ from test_usb import D435_ID, D455_ID, D455_SERIAL, TimedEvents, bed, usb_daemon
 from usbbed import in_umockdev
 
 TESTS = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(TESTS, "integration"))
+sys.path.insert(0, os.path.join(TESTS, "api"))
 sys.path.insert(0, os.path.join(TESTS, "client"))
 sys.path.insert(0, os.path.join(os.path.dirname(TESTS), "client", "python", "src"))
 from api_util import validate_response  # noqa: E402

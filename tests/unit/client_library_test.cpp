@@ -1,6 +1,6 @@
 // Unit tests of the rsdiscovery client library: the pure parts (endpoints, SSE
 // parsing, documents); requests, watches and subscriptions against the daemon's real
-// ApiServer (tests/integration/api_harness, a child process fed the table on its
+// ApiServer (tests/api/api_harness, a child process fed the table on its
 // stdin); and, against a raw stand-in on a Unix socket, the answers the real server
 // never gives (malformed replies, another API version, oversized answers).
 #include "internal.hpp"
@@ -783,7 +783,7 @@ TEST(Watch, FailsAtOnceWhenTheDaemonIsAbsent) {
 
 // ---- the real ApiServer ------------------------------------------------------------------------
 
-// tests/integration/api_harness as a child process: the daemon's own ApiServer over a
+// tests/api/api_harness as a child process: the daemon's own ApiServer over a
 // table this test writes through the harness's stdin, on a Unix socket of its own. What
 // the daemon does on its own terms is reached through it: an incomplete table (its
 // domains' first discovery), dropped streams (api-stop, api-start: the table and its

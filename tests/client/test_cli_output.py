@@ -1,4 +1,4 @@
-"""rs-discover, sharper (issue 23), against the real daemon and real realdds servers:
+"""What rs-discover prints, against the real daemon and real realdds servers:
 --format on list, get and participants, with nested fields and an unknown field an
 error; `get` pointing to `doctor`; the loopback HTTP endpoint used when the default
 socket is missing or refused (and both named when neither answers); watch --initial's
@@ -20,7 +20,7 @@ from conftest import DAEMON, device_info, wait_for
 def camera(daemon, realdds_server, domains):
     domain = domains.take(*DOMAIN_RANGE)
     info = device_info(41, **{"custom-field": "kept as sent"})
-    server = realdds_server(domain, [info], name="sharper-server")
+    server = realdds_server(domain, [info], name="format-server")
     d = daemon([domain])
     wait_for(lambda: len(d.devices()) == 1, 20, what="the camera")
     return d, "unix:" + d.socket, info, server
@@ -33,7 +33,7 @@ def test_format_nested_fields_unknown_ones_and_on_get_and_participants(camera):
     r = rs_discover("list", "--format", "{serial} {server.addresses} {server.participant-name} {sources} {usb.port-path}|",
                     endpoint=ep)
     assert r.returncode == 0, r.stderr
-    assert r.stdout == f"{info['serial']} {','.join(addresses)} sharper-server dds |\n"  # lists joined, absent empty
+    assert r.stdout == f"{info['serial']} {','.join(addresses)} format-server dds |\n"  # lists joined, absent empty
     # A key of the camera's own device-info that the API does not document still works.
     assert rs_discover("list", "-f", "{custom-field}", endpoint=ep).stdout == "kept as sent\n"
     for command in (["list"], ["get", info["serial"]]):
@@ -42,11 +42,11 @@ def test_format_nested_fields_unknown_ones_and_on_get_and_participants(camera):
         assert "unknown field '{fw_version}'" in r.stderr and "{fw-version}" in r.stderr and \
             "{server.addresses}" in r.stderr, r.stderr
     r = rs_discover("get", "--format", "{id}\\t{server.participant-name}\\t{state}", info["serial"], endpoint=ep)
-    assert r.returncode == 0 and r.stdout == f"{device['id']}\tsharper-server\tok\n", r
+    assert r.returncode == 0 and r.stdout == f"{device['id']}\tformat-server\tok\n", r
     r = rs_discover("participants", "--format", "{name} {vendor} {addresses} {devices} {topic-roots}", endpoint=ep)
     assert r.returncode == 0, r.stderr
-    part = next(p for p in d.get_json("/v1/participants")["participants"] if p.get("name") == "sharper-server")
-    assert f"sharper-server fast-dds {','.join(part['addresses'])} 1 {info['topic-root']}" in r.stdout.splitlines()
+    part = next(p for p in d.get_json("/v1/participants")["participants"] if p.get("name") == "format-server")
+    assert f"format-server fast-dds {','.join(part['addresses'])} 1 {info['topic-root']}" in r.stdout.splitlines()
     r = rs_discover("participants", "--format", "{serial}", endpoint=ep)
     assert r.returncode == 2 and "unknown field '{serial}'" in r.stderr and "{vendor}" in r.stderr, r
     assert "--format" in rs_discover("get", "--help").stdout and "--format" in rs_discover("participants", "--help").stdout

@@ -1,4 +1,4 @@
-"""The real ApiServer over a table fed through stdin (tests/integration/api_harness):
+"""The real ApiServer over a table fed through stdin (tests/api/api_harness):
 what a DDS-fed table cannot produce on cue. Every test has its own socket and port."""
 import json
 import concurrent.futures
@@ -15,7 +15,7 @@ from api_util import SSEStream, curl, get_json, metric, parse_metrics, raw, requ
 from conftest import wait_for
 
 HARNESS = os.environ.get("RSD_API_HARNESS") or os.path.join(
-    os.environ.get("RSD_BUILD_DIR", ""), "tests", "integration", "api_harness")
+    os.environ.get("RSD_BUILD_DIR", ""), "tests", "api", "api_harness")
 
 
 class Harness:
