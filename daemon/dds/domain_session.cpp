@@ -119,6 +119,7 @@ void DomainSession::start() {
   // Shared USB cameras: a failure costs sharing, not the domain.
   if (const std::string why = share_.start(participant_, guid_to_string(guid), Clock::now()); !why.empty())
     log::warning(log::domain_prefix(d) + why);
+  share_usb(std::move(usb_cameras_));  // a new writer has announced nothing yet
 
   dds_qos_t* tqos = dds_create_qos();
   dds_qset_reliability(tqos, DDS_RELIABILITY_RELIABLE, DDS_SECS(10));
@@ -201,7 +202,7 @@ void DomainSession::forget_devices(model::RemovalReason reason) {
   share_.forget_devices(reason);
 }
 
-void DomainSession::share_usb(const std::map<std::string, nlohmann::json>& cameras) {
+void DomainSession::share_usb(std::map<std::string, nlohmann::json> cameras) {
   // Where other hosts reach this one: the addresses the domain is joined on
   // (only the main thread changes them).
   std::vector<std::string> addresses;
@@ -209,7 +210,8 @@ void DomainSession::share_usb(const std::map<std::string, nlohmann::json>& camer
     for (const auto& i : options_.interfaces)
       for (const auto& a : i.ipv4)
         if (addresses.size() < kMaxSharedAddresses) addresses.push_back(a);
-  share_.publish(cameras, addresses);
+  usb_cameras_ = std::move(cameras);
+  share_.publish(usb_cameras_, addresses);
 }
 
 bool DomainSession::reading() const { return reader_ > 0; }

@@ -105,8 +105,9 @@ class DomainSession {
   // such device. Any thread.
   std::optional<model::DeviceClients> clients(const std::string& topic_root) const;
   // This host's USB cameras now (sighting id -> document), announced on the domain
-  // when sharing is on. Main thread.
-  void share_usb(const std::map<std::string, nlohmann::json>& cameras);
+  // when sharing is on, and again each time the participant is made anew (kept
+  // for that: the main loop passes them only when they change). Main thread.
+  void share_usb(std::map<std::string, nlohmann::json> cameras);
 
  private:
   bool complete_locked() const;
@@ -157,6 +158,7 @@ class DomainSession {
   ParticipantBook participants_;
   DescriptionFetcher fetcher_;  // its own lock: never taken while holding mutex_
   ShareSession share_;          // its own lock: never taken while holding mutex_
+  std::map<std::string, nlohmann::json> usb_cameras_;  // what share_usb() was last given
   std::optional<Clock::time_point> first_reader_at_;  // kept across rebuilds
   std::uint64_t rebuilds_ = 0, refreshes_ = 0;
   std::uint64_t network_changes_ = 0;

@@ -15,7 +15,9 @@ std::shared_ptr<dds::DomainSession> DomainSet::make(int domain) const {
   dds::SessionOptions options = base_;
   options.domain = domain;
   options.describe_eagerly = options.describe_eagerly || options.describe_eagerly_in.count(domain) > 0;
-  return std::make_shared<dds::DomainSession>(table_, options);
+  auto session = std::make_shared<dds::DomainSession>(table_, options);
+  session->share_usb(usb_cameras_);  // announced once its participant is made
+  return session;
 }
 
 void DomainSet::start(const std::vector<int>& domains) {
@@ -97,6 +99,7 @@ void DomainSet::stop() {
 }
 
 void DomainSet::share_usb(const std::map<std::string, nlohmann::json>& cameras) {
+  usb_cameras_ = cameras;
   for (auto& [d, s] : sessions_) s->share_usb(cameras);
 }
 

@@ -50,7 +50,8 @@ class DomainSet {
   // The sessions' timers; returns how soon it wants to be called again.
   Clock::duration tick(Clock::time_point now);
   // This host's USB cameras now, announced on every domain when share-usb is on
-  // (each session writes only what changed). Main thread.
+  // (each session writes only what changed), and on domains joined later. Main
+  // thread, each time they change.
   void share_usb(const std::map<std::string, nlohmann::json>& cameras);
 
   // Main thread only (the one that changes the set).
@@ -75,6 +76,7 @@ class DomainSet {
  private:
   std::shared_ptr<dds::DomainSession> make(int domain) const;
 
+  std::map<std::string, nlohmann::json> usb_cameras_;  // what share_usb() was last given
   SharedTable& table_;
   dds::SessionOptions base_;
   // Only the main thread inserts or erases; it takes the mutex to do so, and

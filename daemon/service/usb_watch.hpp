@@ -29,14 +29,22 @@ class UsbWatch {
   void stop() { apply(false); }
   bool on() const { return source_ != nullptr; }  // main thread
 
+  // Readable when cameras() changed (an eventfd the main loop polls beside the
+  // signalfd); changed() reads it: whether they did since the last call. Main thread.
+  int fd() const { return wake_fd_; }
+  bool changed();
+
   // Any thread (API workers). Nothing while USB is off.
   std::optional<UsbStatus> status() const;
   // The local cameras (sighting id -> document); empty while USB is off.
   std::map<std::string, nlohmann::json> cameras() const;
 
  private:
+  void wake();
+
   SharedTable& table_;
   usb::UsbOptions options_;
+  int wake_fd_ = -1;
   // Only the main thread replaces it, under the mutex; readers copy it under the
   // mutex and ask it outside, so a status request never waits for a stop.
   mutable std::mutex mutex_;
