@@ -7,7 +7,9 @@
 
 namespace rsd::service {
 
-DomainSet::DomainSet(SharedTable& table, dds::SessionOptions base) : table_(table), base_(std::move(base)) {}
+DomainSet::DomainSet(SharedTable& table, dds::SessionOptions base) : table_(table), base_(std::move(base)) {
+  base_.wake = [this] { wake_.wake(); };
+}
 
 DomainSet::~DomainSet() { stop(); }
 
@@ -104,7 +106,7 @@ void DomainSet::share_usb(const std::map<std::string, nlohmann::json>& cameras) 
 }
 
 DomainSet::Clock::duration DomainSet::tick(Clock::time_point now) {
-  Clock::duration wait = std::chrono::seconds(1);
+  Clock::duration wait = dds::DomainSession::kIdle;
   for (auto& [d, s] : sessions_) wait = std::min(wait, s->tick(now));
   return wait;
 }

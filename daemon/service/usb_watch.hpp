@@ -3,6 +3,7 @@
 // status from any thread while that happens.
 #pragma once
 
+#include "service/wake_fd.hpp"
 #include "status/usb_status.hpp"
 #include "table/shared_table.hpp"
 #include "usb/usb_source.hpp"
@@ -31,8 +32,8 @@ class UsbWatch {
 
   // Readable when cameras() changed (an eventfd the main loop polls beside the
   // signalfd); changed() reads it: whether they did since the last call. Main thread.
-  int fd() const { return wake_fd_; }
-  bool changed();
+  int fd() const { return wake_.fd(); }
+  bool changed() { return wake_.take(); }
 
   // Any thread (API workers). Nothing while USB is off.
   std::optional<UsbStatus> status() const;
@@ -40,11 +41,9 @@ class UsbWatch {
   std::map<std::string, nlohmann::json> cameras() const;
 
  private:
-  void wake();
-
   SharedTable& table_;
   usb::UsbOptions options_;
-  int wake_fd_ = -1;
+  WakeFd wake_;
   // Only the main thread replaces it, under the mutex; readers copy it under the
   // mutex and ask it outside, so a status request never waits for a stop.
   mutable std::mutex mutex_;
