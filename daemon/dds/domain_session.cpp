@@ -264,8 +264,8 @@ MatchedWriters DomainSession::matched_writers(dds_entity_t reader) const {
   // many it stored (it stores at most the array's size: Cyclone 0.10.2's
   // dds_matched.c counts on past the end). So the array grows to the count and
   // is asked again; writers may match between the two calls, hence the loop.
-  // A fixed array of 1,024 here once built the set from past its end (SIGSEGV
-  // with 1,025 writers on a domain, issue 20).
+  // A fixed array here once built the set from past its end (a crash with one
+  // writer more than the array held).
   std::vector<dds_instance_handle_t> handles(64);
   for (;;) {
     const dds_return_t n = reader > 0 ? dds_get_matched_publications(reader, handles.data(), handles.size()) : 0;

@@ -62,7 +62,7 @@ struct SessionOptions {
   // announcement to describe eagerly): the main loop then ticks it, so it may
   // sleep until the deadlines tick() returned. Must only wake, never call back in.
   std::function<void()> wake;
-  // USB cameras shared between daemons (issue 25): every session reads other
+  // USB cameras shared between daemons: every session reads other
   // hosts' cameras; with share.share on it also announces this host's.
   ShareOptions share;
 };

@@ -1,5 +1,5 @@
-// What one DDS domain knows about the USB cameras other daemons share on it
-// (issue 25): which instances of rs-discoveryd/shared-usb are in the table, under
+// What one DDS domain knows about the USB cameras other daemons share on it:
+// which instances of rs-discoveryd/shared-usb are in the table, under
 // which id, for which participant; the caps; what it refused. No DDS in it: the
 // share shell (ShareSession) turns Cyclone's samples and instance states into
 // these calls under its lock, and unit tests drive the same calls.
