@@ -161,20 +161,29 @@ int main(int argc, char** argv) {
   auto next_trim = Clock::now() + kTrimEvery;
 
   bool running = true;
+  bool usb_changed = true;  // the cameras listed at start, shared once the loop runs
   while (running) {
     const auto now = Clock::now();
     if (now >= next_trim) {
       malloc_trim(0);
       next_trim = now + kTrimEvery;
     }
-    // This host's cameras, announced to other hosts (at most a tick after a plug).
-    if (options.session.share.share) domains.share_usb(usb.cameras());
+    // This host's cameras, announced to other hosts as soon as they change: the
+    // USB source wakes the loop through usb.fd().
+    if (usb_changed && options.session.share.share) domains.share_usb(usb.cameras());
+    usb_changed = false;
+    // Each part says when it next has something to do; the loop sleeps until the
+    // soonest of those, or until a descriptor wakes it.
     const auto wait = std::chrono::ceil<std::chrono::milliseconds>(std::min(
         {domains.tick(now), network.tick(now), service.tick(now), Clock::duration(next_trim - now)}));
-    pollfd pfds[2] = {{signal_fd, POLLIN, 0}, {network.fd(), POLLIN, 0}};  // fd -1: not polled
+    // fd -1: not polled
+    pollfd pfds[4] = {
+        {signal_fd, POLLIN, 0}, {network.fd(), POLLIN, 0}, {usb.fd(), POLLIN, 0}, {domains.fd(), POLLIN, 0}};
     const int timeout = static_cast<int>(std::max<std::int64_t>(wait.count(), 1));
-    if (poll(pfds, 2, timeout) <= 0) continue;
+    if (poll(pfds, 4, timeout) <= 0) continue;
     if (pfds[1].revents & POLLIN) network.readable(Clock::now());
+    if (pfds[2].revents & POLLIN) usb_changed = usb.changed();
+    if (pfds[3].revents & POLLIN) domains.woken();  // the sessions tick at the next turn
     if (!(pfds[0].revents & POLLIN)) continue;
     signalfd_siginfo si{};
     if (read(signal_fd, &si, sizeof si) != static_cast<ssize_t>(sizeof si)) continue;

@@ -293,7 +293,7 @@ std::string render_metrics(const MetricsInput& in) {
   for (const auto& d : in.domains) per_domain.try_emplace(d.domain, 0);
   // rsd_domain_devices is the per-domain count, named like the other rsd_domain_*
   // families; rsd_devices was its documented name in 0.1.0 and stays, the same
-  // values, for one release so that dashboards can move (issue 23).
+  // values, for one release so that dashboards can move.
   w.family("rsd_domain_devices", "gauge", "Devices in the table, by DDS domain (rsd_table_devices: all sources).");
   for (const auto& [domain, n] : per_domain) w.sample("rsd_domain_devices", {{"domain", std::to_string(domain)}}, n);
   w.family("rsd_devices", "gauge", "Deprecated, removed in the next release: use rsd_domain_devices (the same values).");

@@ -241,6 +241,14 @@ void DescriptionFetcher::tick(Clock::time_point now,
   for (auto& fetch : ending) unsubscribe(*fetch);
 }
 
+std::optional<DescriptionFetcher::Clock::time_point> DescriptionFetcher::next_deadline(Clock::time_point now) const {
+  std::lock_guard lock(mutex_);
+  if (fetches_.empty() && finished_.empty()) return std::nullopt;
+  Clock::time_point next = now + kInFlightCheck;
+  for (const auto& [topic_root, f] : fetches_) next = std::min(next, std::max(now, f->deadline));
+  return next;
+}
+
 std::map<std::string, std::uint64_t> DescriptionFetcher::rejected() const {
   std::lock_guard lock(mutex_);
   return rejected_;

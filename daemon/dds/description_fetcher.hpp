@@ -15,6 +15,7 @@
 #include <condition_variable>
 #include <functional>
 #include <map>
+#include <optional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -68,6 +69,11 @@ class DescriptionFetcher {
   // of devices that are gone and drops their kept descriptions (`still_there`
   // says which devices are still announced).
   void tick(Clock::time_point now, const std::function<bool(const std::string& topic_root)>& still_there);
+  // When tick() is next wanted: while descriptions are in flight or finished,
+  // every kInFlightCheck (a device that leaves mid-fetch is told by tick()), and
+  // no later than the soonest fetch's deadline; nothing when none is.
+  std::optional<Clock::time_point> next_deadline(Clock::time_point now) const;
+  static constexpr std::chrono::milliseconds kInFlightCheck{250};
 
   std::uint64_t fetches_started() const { return started_.load(); }
   std::map<std::string, std::uint64_t> rejected() const;  // malformed notifications, by reason

@@ -366,6 +366,18 @@ DomainBook::Due DomainBook::tick(Clock::time_point now, const MatchedWriters& st
   return due;
 }
 
+std::optional<DomainBook::Clock::time_point> DomainBook::next_deadline(Clock::time_point now) const {
+  std::optional<Clock::time_point> next = lost_.next_check(now);
+  // Only what lies ahead: what is due now, tick() has just done or declined.
+  const auto consider = [&](Clock::time_point t) {
+    if (t > now && (!next || t < *next)) next = t;
+  };
+  if (reconcile_at_) consider(*reconcile_at_);
+  for (const auto& [h, w] : writers_)
+    if (!w.sent && !idle_writers_.count(w.identity.guid)) consider(w.matched_at + options_.silent_grace);
+  return next;
+}
+
 std::map<std::string, PublisherCounts> DomainBook::publishers(Clock::time_point now) const {
   std::map<std::string, PublisherCounts> out;
   for (const auto& [h, w] : writers_) {

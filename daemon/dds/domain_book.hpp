@@ -133,6 +133,10 @@ class DomainBook {
   // The timers: reconciliation, silent writers, lost servers. `still_matched` as
   // for writer_left(); read only when reconcile_due(now).
   Due tick(Clock::time_point now, const MatchedWriters& still_matched);
+  // The soonest of the book's timers after `now` (reconciliation, writers that
+  // may turn out silent, lost servers); nothing: no timer is set. Every timer the
+  // book keeps has its place here, or the main loop sleeps past it.
+  std::optional<Clock::time_point> next_deadline(Clock::time_point now) const;
 
   // Removes this domain's devices from the table (leaving the domain for good).
   void forget_devices(model::RemovalReason reason);

@@ -120,7 +120,9 @@ void DomainSession::create_builtin_readers() {
 
 void DomainSession::on_participant_data(dds_entity_t reader, void* arg) {
   try {
-    static_cast<DomainSession*>(arg)->take_participant_changes(reader);
+    auto* self = static_cast<DomainSession*>(arg);
+    self->take_participant_changes(reader);
+    self->wake();  // a participant gone may be a lost server, timed from now
   } catch (const std::exception& e) {
     log::error(std::string("participant listener: ") + e.what());
   }

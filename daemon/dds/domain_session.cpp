@@ -63,8 +63,9 @@ DomainSession::DomainSession(SharedTable& table, SessionOptions options)
         return book;
       }()),
       fetcher_(options_.domain, options_.describe_timeout,
-               [&table, domain = options_.domain](const std::string& topic_root) {
+               [&table, domain = options_.domain, wake = options_.wake](const std::string& topic_root) {
                  table.note_described(device_id(domain, topic_root));  // the `described` event
+                 if (wake) wake();  // its reader goes on the main thread
                }),
       share_(table, [this] {
         ShareOptions share = options_.share;
@@ -119,6 +120,7 @@ void DomainSession::start() {
   // Shared USB cameras: a failure costs sharing, not the domain.
   if (const std::string why = share_.start(participant_, guid_to_string(guid), Clock::now()); !why.empty())
     log::warning(log::domain_prefix(d) + why);
+  share_usb(std::move(usb_cameras_));  // a new writer has announced nothing yet
 
   dds_qos_t* tqos = dds_create_qos();
   dds_qset_reliability(tqos, DDS_RELIABILITY_RELIABLE, DDS_SECS(10));
@@ -201,7 +203,7 @@ void DomainSession::forget_devices(model::RemovalReason reason) {
   share_.forget_devices(reason);
 }
 
-void DomainSession::share_usb(const std::map<std::string, nlohmann::json>& cameras) {
+void DomainSession::share_usb(std::map<std::string, nlohmann::json> cameras) {
   // Where other hosts reach this one: the addresses the domain is joined on
   // (only the main thread changes them).
   std::vector<std::string> addresses;
@@ -209,7 +211,8 @@ void DomainSession::share_usb(const std::map<std::string, nlohmann::json>& camer
     for (const auto& i : options_.interfaces)
       for (const auto& a : i.ipv4)
         if (addresses.size() < kMaxSharedAddresses) addresses.push_back(a);
-  share_.publish(cameras, addresses);
+  usb_cameras_ = std::move(cameras);
+  share_.publish(usb_cameras_, addresses);
 }
 
 bool DomainSession::reading() const { return reader_ > 0; }
@@ -261,8 +264,8 @@ MatchedWriters DomainSession::matched_writers(dds_entity_t reader) const {
   // many it stored (it stores at most the array's size: Cyclone 0.10.2's
   // dds_matched.c counts on past the end). So the array grows to the count and
   // is asked again; writers may match between the two calls, hence the loop.
-  // A fixed array of 1,024 here once built the set from past its end (SIGSEGV
-  // with 1,025 writers on a domain, issue 20).
+  // A fixed array here once built the set from past its end (a crash with one
+  // writer more than the array held).
   std::vector<dds_instance_handle_t> handles(64);
   for (;;) {
     const dds_return_t n = reader > 0 ? dds_get_matched_publications(reader, handles.data(), handles.size()) : 0;
@@ -277,16 +280,15 @@ MatchedWriters DomainSession::matched_writers(dds_entity_t reader) const {
 
 DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   using namespace std::chrono;
-  if (participant_ <= 0) return seconds(1);
-  share_.tick(now);  // its reconciliation is seconds long: the 250 ms below is fine enough
+  if (participant_ <= 0) return kIdle;  // nothing joined: a reload or rebuild starts it anew
+  Clock::duration wait = std::min(kIdle, share_.tick(now));
   if (reader_ <= 0) {
-    if (now - joined_at_ < options_.settle) return options_.settle - (now - joined_at_);
+    if (now - joined_at_ < options_.settle) return std::min(wait, options_.settle - (now - joined_at_));
     create_reader();
-    return milliseconds(250);
   }
 
   // Listed only when the book reconciles: with thousands of writers, listing
-  // and sorting them four times a second would be most of an idle daemon's CPU.
+  // and sorting them at every turn of the loop would be most of an idle daemon's CPU.
   bool reconciling = false;
   {
     std::lock_guard lock(mutex_);
@@ -296,6 +298,7 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   DomainBook::Due due;
   std::set<std::string> present;                 // topic-roots in the table now
   std::map<std::string, nlohmann::json> eager;  // topic-root -> announcement, to describe
+  std::optional<Clock::time_point> book_next;
   {
     std::lock_guard lock(mutex_);
     // reconcile_due(now) holds as above: only this (the main) thread moves the
@@ -303,29 +306,36 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
     due = book_.tick(now, matched);
     if (due.refresh) ++refreshes_;
     present = book_.topic_roots();
-    // Copied four times a second only where asked for: with 100 devices the copy of
-    // every announcement was ~3.5 ms of CPU a second, most of what the daemon spent idle.
+    // Copied only where asked for: with 100 devices, copying every announcement at
+    // each turn was most of what an idle daemon spent.
     if (options_.describe_eagerly && !due.refresh) eager = book_.announcements();
+    book_next = book_.next_deadline(now);
   }
   fetcher_.tick(now, [&](const std::string& topic_root) { return present.count(topic_root) > 0; });
   for (const auto& [topic_root, announcement] : eager)
     if (!announcement.value("recovery", false)) fetcher_.prefetch(topic_root, announcement);
   if (due.refresh) {
     rebuild();  // the reader follows after the settle time
-    return options_.settle;
+    return std::min(wait, Clock::duration(options_.settle));
   }
   if (due.make_reader_anew) {
     delete_reader();
     create_reader();
+    std::lock_guard lock(mutex_);
+    book_next = book_.next_deadline(now);  // the new reader set a reconciliation
   }
-  return milliseconds(250);
+  if (book_next) wait = std::min(wait, *book_next - now);
+  if (const auto fetch_next = fetcher_.next_deadline(Clock::now())) wait = std::min(wait, *fetch_next - now);
+  return wait;
 }
 
 // Cyclone calls these from its own (C) threads: an exception must not cross
 // back into it, so whatever slipped through is logged and the sample dropped.
 void DomainSession::on_data_available(dds_entity_t reader, void* arg) {
   try {
-    static_cast<DomainSession*>(arg)->take_samples(reader);
+    auto* self = static_cast<DomainSession*>(arg);
+    self->take_samples(reader);
+    if (self->options_.describe_eagerly) self->wake();  // its new devices are described from tick()
   } catch (const std::exception& e) {
     log::error(std::string("device-info listener: ") + e.what());
   }
@@ -335,7 +345,9 @@ void DomainSession::on_data_available(dds_entity_t reader, void* arg) {
 void DomainSession::on_subscription_matched(dds_entity_t reader,
                                             dds_subscription_matched_status_t status, void* arg) {
   try {
-    static_cast<DomainSession*>(arg)->handle_matched(reader, status);
+    auto* self = static_cast<DomainSession*>(arg);
+    self->handle_matched(reader, status);
+    self->wake();  // a writer's silence, or a lost server, is timed from now
   } catch (const std::exception& e) {
     log::error(std::string("subscription-matched listener: ") + e.what());
   }

@@ -13,6 +13,7 @@
 #include <dds/dds.h>
 
 #include <chrono>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -56,7 +57,12 @@ struct SessionOptions {
   // few ms once discovery has settled: this long after the first reader exists,
   // the domain's first discovery counts as complete (DomainStatus::complete).
   std::chrono::milliseconds initial_grace{1000};
-  // USB cameras shared between daemons (issue 25): every session reads other
+  // Called from DDS's threads when the session may have a new timer (a writer
+  // matched or left, a participant came or went, a description arrived, an
+  // announcement to describe eagerly): the main loop then ticks it, so it may
+  // sleep until the deadlines tick() returned. Must only wake, never call back in.
+  std::function<void()> wake;
+  // USB cameras shared between daemons: every session reads other
   // hosts' cameras; with share.share on it also announces this host's.
   ShareOptions share;
 };
@@ -86,9 +92,11 @@ class DomainSession {
   void follow_network(std::vector<net::NetInterface> chosen);
 
   // Timers: reader creation, and what the book asks for (a new reader, a
-  // refresh). The main
-  // loop calls it; returns how soon it wants to be called again.
+  // refresh), shared cameras not heard again, descriptions. The main loop calls
+  // it; returns how soon it has something to do (at the latest kIdle), unless
+  // `wake` is called first.
   Clock::duration tick(Clock::time_point now);
+  static constexpr Clock::duration kIdle = std::chrono::hours(1);
 
   // The description of this domain's device with `topic_root` (Camera
   // Discovery), fetched from its server on demand; blocks up to `wait`. Any
@@ -105,11 +113,15 @@ class DomainSession {
   // such device. Any thread.
   std::optional<model::DeviceClients> clients(const std::string& topic_root) const;
   // This host's USB cameras now (sighting id -> document), announced on the domain
-  // when sharing is on. Main thread.
-  void share_usb(const std::map<std::string, nlohmann::json>& cameras);
+  // when sharing is on, and again each time the participant is made anew (kept
+  // for that: the main loop passes them only when they change). Main thread.
+  void share_usb(std::map<std::string, nlohmann::json> cameras);
 
  private:
   bool complete_locked() const;
+  void wake() const {
+    if (options_.wake) options_.wake();
+  }
   static void on_data_available(dds_entity_t reader, void* arg);
   static void on_participant_data(dds_entity_t reader, void* arg);
   static void on_publication_data(dds_entity_t reader, void* arg);
@@ -157,6 +169,7 @@ class DomainSession {
   ParticipantBook participants_;
   DescriptionFetcher fetcher_;  // its own lock: never taken while holding mutex_
   ShareSession share_;          // its own lock: never taken while holding mutex_
+  std::map<std::string, nlohmann::json> usb_cameras_;  // what share_usb() was last given
   std::optional<Clock::time_point> first_reader_at_;  // kept across rebuilds
   std::uint64_t rebuilds_ = 0, refreshes_ = 0;
   std::uint64_t network_changes_ = 0;

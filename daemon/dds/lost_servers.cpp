@@ -26,11 +26,32 @@ void LostServers::writer_lost(const std::string& participant, Clock::time_point 
   if (!lost_.count(participant)) suspects_.emplace(participant, now);
 }
 
-bool LostServers::heard_refresh_allowed(const Lost& lost, Clock::time_point now) const {
-  if (lost.heard_refreshes < times_.heard_refreshes || !last_refresh_) return true;
+LostServers::Clock::duration LostServers::heard_wait(const Lost& lost) const {
+  if (lost.heard_refreshes < times_.heard_refreshes || !last_refresh_) return Clock::duration::zero();
   auto wait = times_.heard_backoff;
   for (int i = times_.heard_refreshes; i < lost.heard_refreshes && wait < times_.heard_backoff_max; ++i) wait *= 2;
-  return now - *last_refresh_ >= std::min(wait, times_.heard_backoff_max);
+  return std::min(wait, times_.heard_backoff_max);
+}
+
+bool LostServers::heard_refresh_allowed(const Lost& lost, Clock::time_point now) const {
+  return !last_refresh_ || now - *last_refresh_ >= heard_wait(lost);
+}
+
+std::optional<LostServers::Clock::time_point> LostServers::next_check(Clock::time_point now) const {
+  std::optional<Clock::time_point> next;
+  // Only what lies ahead: what is due now, check() has just done or declined.
+  const auto consider = [&](Clock::time_point t) {
+    if (t > now && (!next || t < *next)) next = t;
+  };
+  for (const auto& [guid, since] : suspects_) consider(since + times_.check_delay);
+  for (const auto& [guid, lost] : lost_) {
+    consider(lost.lost_at + times_.forget_after);
+    consider(lost.next_refresh);
+    if (!lost.heard_at || !reading_since_) continue;
+    const auto stale_at = std::max(*lost.heard_at, *reading_since_) + times_.rematch_grace;
+    consider(last_refresh_ ? std::max(stale_at, *last_refresh_ + heard_wait(lost)) : stale_at);
+  }
+  return next;
 }
 
 LostServers::Verdict LostServers::check(Clock::time_point now) {

@@ -76,6 +76,9 @@ class LostServers {
   // those lost too long ago, and says whether a refresh is due now; if so, it is
   // counted as done and the next one is scheduled.
   Verdict check(Clock::time_point now);
+  // When check() next has something to settle after `now`; nothing while no
+  // server is suspect or lost.
+  std::optional<Clock::time_point> next_check(Clock::time_point now) const;
 
   std::size_t size() const { return lost_.size(); }
   bool lost(const std::string& participant) const { return lost_.count(participant) > 0; }
@@ -90,6 +93,7 @@ class LostServers {
   };
 
   bool heard_refresh_allowed(const Lost& lost, Clock::time_point now) const;
+  Clock::duration heard_wait(const Lost& lost) const;  // since the last refresh
 
   LostServerTimes times_;
   std::set<std::string> alive_;                         // participants Cyclone sees now

@@ -103,7 +103,7 @@ void ShareBook::reader_made(Clock::time_point now) {
 }
 
 ShareBook::Clock::duration ShareBook::tick(Clock::time_point now) {
-  Clock::duration next = std::chrono::seconds(1);
+  Clock::duration next = kIdle;
   for (auto it = stale_.begin(); it != stale_.end();) {
     if (now < it->second.until) {
       next = std::min<Clock::duration>(next, it->second.until - now);

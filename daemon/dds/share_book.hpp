@@ -1,5 +1,5 @@
-// What one DDS domain knows about the USB cameras other daemons share on it
-// (issue 25): which instances of rs-discoveryd/shared-usb are in the table, under
+// What one DDS domain knows about the USB cameras other daemons share on it:
+// which instances of rs-discoveryd/shared-usb are in the table, under
 // which id, for which participant; the caps; what it refused. No DDS in it: the
 // share shell (ShareSession) turns Cyclone's samples and instance states into
 // these calls under its lock, and unit tests drive the same calls.
@@ -55,8 +55,10 @@ class ShareBook {
   // A new reader: instance handles start over. Cameras stay until reconcile_grace
   // passes without their instance being heard again.
   void reader_made(Clock::time_point now);
-  // Returns how soon it wants to be called again (reconciliation).
+  // Returns how soon it wants to be called again (reconciliation); kIdle when
+  // no shared camera waits to be heard again.
   Clock::duration tick(Clock::time_point now);
+  static constexpr Clock::duration kIdle = std::chrono::hours(1);
 
   // Leaving the domain: every shared camera of it leaves the table.
   void forget_devices(model::RemovalReason reason);

@@ -1,4 +1,4 @@
-// One DDS domain's side of USB sharing (issue 25): the reader of
+// One DDS domain's side of USB sharing: the reader of
 // rs-discoveryd/shared-usb that every daemon has, feeding a ShareBook, and, with
 // share-usb on, the writer announcing this host's USB cameras. A thin Cyclone
 // shell, made and deleted with its DomainSession's participant, on the main thread.

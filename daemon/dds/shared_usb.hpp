@@ -1,4 +1,4 @@
-// The USB cameras daemons share with one another (issue 25, proto/shared_usb.idl):
+// The USB cameras daemons share with one another (proto/shared_usb.idl):
 // what a sharing daemon writes for one of its local cameras, and what a reader
 // makes of another host's sample. Pure, like device_info: every kind of bad input
 // is unit-tested and fuzzed without a network.

@@ -33,7 +33,7 @@ namespace {
 // How a line starts, chosen once from where stderr goes. The journal (systemd sets
 // JOURNAL_STREAM to stderr's device:inode) reads "<N>" as the priority and stamps
 // the time itself; everywhere else (a terminal, a file, `docker logs`' pipe) a
-// person reads the line: the local time and the level's word (issue 23).
+// person reads the line: the local time and the level's word.
 enum class Form { priority, readable };
 
 Form detect_form() {

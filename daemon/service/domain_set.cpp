@@ -7,7 +7,9 @@
 
 namespace rsd::service {
 
-DomainSet::DomainSet(SharedTable& table, dds::SessionOptions base) : table_(table), base_(std::move(base)) {}
+DomainSet::DomainSet(SharedTable& table, dds::SessionOptions base) : table_(table), base_(std::move(base)) {
+  base_.wake = [this] { wake_.wake(); };
+}
 
 DomainSet::~DomainSet() { stop(); }
 
@@ -15,7 +17,9 @@ std::shared_ptr<dds::DomainSession> DomainSet::make(int domain) const {
   dds::SessionOptions options = base_;
   options.domain = domain;
   options.describe_eagerly = options.describe_eagerly || options.describe_eagerly_in.count(domain) > 0;
-  return std::make_shared<dds::DomainSession>(table_, options);
+  auto session = std::make_shared<dds::DomainSession>(table_, options);
+  session->share_usb(usb_cameras_);  // announced once its participant is made
+  return session;
 }
 
 void DomainSet::start(const std::vector<int>& domains) {
@@ -97,11 +101,12 @@ void DomainSet::stop() {
 }
 
 void DomainSet::share_usb(const std::map<std::string, nlohmann::json>& cameras) {
+  usb_cameras_ = cameras;
   for (auto& [d, s] : sessions_) s->share_usb(cameras);
 }
 
 DomainSet::Clock::duration DomainSet::tick(Clock::time_point now) {
-  Clock::duration wait = std::chrono::seconds(1);
+  Clock::duration wait = dds::DomainSession::kIdle;
   for (auto& [d, s] : sessions_) wait = std::min(wait, s->tick(now));
   return wait;
 }

@@ -5,6 +5,7 @@
 
 #include "dds/domain_session.hpp"
 #include "dds/domain_status.hpp"
+#include "service/wake_fd.hpp"
 #include "table/shared_table.hpp"
 
 #include <chrono>
@@ -47,10 +48,15 @@ class DomainSet {
   void follow_network(const std::vector<net::NetInterface>& chosen);
   void stop();     // leaves every domain; the table keeps what it has
 
-  // The sessions' timers; returns how soon it wants to be called again.
+  // The sessions' timers; returns how soon it wants to be called again. fd() is
+  // readable when a session's DDS thread asks for a tick sooner (woken(): whether
+  // it did since the last call).
   Clock::duration tick(Clock::time_point now);
+  int fd() const { return wake_.fd(); }
+  bool woken() { return wake_.take(); }
   // This host's USB cameras now, announced on every domain when share-usb is on
-  // (each session writes only what changed). Main thread.
+  // (each session writes only what changed), and on domains joined later. Main
+  // thread, each time they change.
   void share_usb(const std::map<std::string, nlohmann::json>& cameras);
 
   // Main thread only (the one that changes the set).
@@ -75,7 +81,9 @@ class DomainSet {
  private:
   std::shared_ptr<dds::DomainSession> make(int domain) const;
 
+  std::map<std::string, nlohmann::json> usb_cameras_;  // what share_usb() was last given
   SharedTable& table_;
+  WakeFd wake_;  // before base_: the sessions' wake() writes to it
   dds::SessionOptions base_;
   // Only the main thread inserts or erases; it takes the mutex to do so, and
   // other threads take it to read. The main thread reads without it.

@@ -12,7 +12,7 @@ UsbWatch::~UsbWatch() { stop(); }
 bool UsbWatch::apply(bool on) {
   if (on == (source_ != nullptr)) return false;
   if (on) {
-    auto source = std::make_shared<usb::UsbSource>(table_, options_);
+    auto source = std::make_shared<usb::UsbSource>(table_, options_, [this] { wake_.wake(); });
     source->start();  // false: unavailable here, logged; its status says why
     std::lock_guard lock(mutex_);
     source_ = std::move(source);

@@ -3,6 +3,7 @@
 // status from any thread while that happens.
 #pragma once
 
+#include "service/wake_fd.hpp"
 #include "status/usb_status.hpp"
 #include "table/shared_table.hpp"
 #include "usb/usb_source.hpp"
@@ -29,6 +30,11 @@ class UsbWatch {
   void stop() { apply(false); }
   bool on() const { return source_ != nullptr; }  // main thread
 
+  // Readable when cameras() changed (an eventfd the main loop polls beside the
+  // signalfd); changed() reads it: whether they did since the last call. Main thread.
+  int fd() const { return wake_.fd(); }
+  bool changed() { return wake_.take(); }
+
   // Any thread (API workers). Nothing while USB is off.
   std::optional<UsbStatus> status() const;
   // The local cameras (sighting id -> document); empty while USB is off.
@@ -37,6 +43,7 @@ class UsbWatch {
  private:
   SharedTable& table_;
   usb::UsbOptions options_;
+  WakeFd wake_;
   // Only the main thread replaces it, under the mutex; readers copy it under the
   // mutex and ask it outside, so a status request never waits for a stop.
   mutable std::mutex mutex_;

@@ -89,7 +89,7 @@ std::optional<std::string> merge_key(const model::Device& sighting) {
   const auto source = source_name(sighting);
   if (!source || source->empty() || !sighting.serial || sighting.serial->empty()) return std::nullopt;
   // Another host's camera is never this host's, nor a third host's with the same
-  // serial (issue 25): each host's sighting stays an entry of its own.
+  // serial: each host's sighting stays an entry of its own.
   if (sighting.source == model::Source::remote_usb) return std::nullopt;
   return *sighting.serial;
 }

@@ -47,8 +47,14 @@ struct UsbSource::Impl {
   std::map<Key, std::string> known;  // device on the bus -> its sighting id
   std::map<std::string, nlohmann::json> docs;  // sighting id -> its document (what share-usb announces)
   UsbStatus status;
+  std::function<void()> changed;  // cameras() changed
 
-  Impl(SharedTable& t, UsbOptions o) : table(t), options(std::move(o)) {}
+  Impl(SharedTable& t, UsbOptions o, std::function<void()> c)
+      : table(t), options(std::move(o)), changed(std::move(c)) {}
+
+  void tell() {
+    if (changed) changed();
+  }
 
   static int LIBUSB_CALL on_hotplug(libusb_context*, libusb_device* dev,
                                     libusb_hotplug_event event, void* user) {
@@ -112,7 +118,11 @@ struct UsbSource::Impl {
     }
     nlohmann::json doc = to_json(s, *product);
     const bool is_new = known.emplace(key, id).second;
-    docs[id] = doc;
+    auto& kept = docs[id];
+    if (kept != doc) {
+      kept = doc;
+      tell();
+    }
     table.upsert(id, doc);
     if (!is_new) return;
     ++status.arrived;
@@ -129,6 +139,7 @@ struct UsbSource::Impl {
     if (it == known.end()) return;  // not ours, or a LEFT without ARRIVED
     table.remove(it->second, model::RemovalReason::unplugged);
     docs.erase(it->second);
+    tell();
     log::info("usb: " + it->second + " left (unplugged)");
     known.erase(it);
     ++status.left;
@@ -174,8 +185,8 @@ struct UsbSource::Impl {
   }
 };
 
-UsbSource::UsbSource(SharedTable& table, UsbOptions options)
-    : impl_(std::make_unique<Impl>(table, std::move(options))) {}
+UsbSource::UsbSource(SharedTable& table, UsbOptions options, std::function<void()> changed)
+    : impl_(std::make_unique<Impl>(table, std::move(options), std::move(changed))) {}
 
 UsbSource::~UsbSource() { stop(); }
 
@@ -258,6 +269,7 @@ void UsbSource::stop() {
     // Not unplugged: the daemon stopped watching USB (a reload, or its stop).
     for (const auto& [key, id] : d.known) d.table.remove(id, model::RemovalReason::domain_left);
     d.known.clear();
+    if (!d.docs.empty()) d.tell();
     d.docs.clear();
     d.status.devices = 0;
     d.status.state = "stopped";

@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -30,7 +31,10 @@ struct UsbOptions {
 
 class UsbSource {
  public:
-  UsbSource(SharedTable& table, UsbOptions options = UsbOptions::from_environment());
+  // `changed` is called (from libusb's thread, or the caller's in start and stop)
+  // each time cameras() changes; it must only wake someone, never call back in.
+  UsbSource(SharedTable& table, UsbOptions options = UsbOptions::from_environment(),
+            std::function<void()> changed = {});
   ~UsbSource();  // stop()
   UsbSource(const UsbSource&) = delete;
   UsbSource& operator=(const UsbSource&) = delete;

@@ -318,3 +318,44 @@ TEST_F(Book, EachWayOfLeavingHasItsReason) {
   book.participant_gone(writer(3, 2).participant_guid, t0 + 2s);
   EXPECT_EQ(table.find_gone(id("102"))->reason, RemovalReason::lease_expired);
 }
+
+// The main loop sleeps until the book's next deadline: a book driven only at
+// its deadlines does what one ticked every 100 ms does.
+TEST_F(Book, ASilentWriterIsJudgedAtTheDeadlineTheBookGives) {
+  EXPECT_EQ(book.next_deadline(t0), std::nullopt);  // nothing to time: the loop may sleep
+  book.writer_matched(1, writer(1, 1), t0);
+  const auto due = book.next_deadline(t0);
+  ASSERT_EQ(due, t0 + options.silent_grace);
+  EXPECT_FALSE(book.tick(*due - 1ms, {1}).make_reader_anew);
+  EXPECT_TRUE(book.tick(*due, {1}).make_reader_anew);
+  book.reader_made(*due);
+  book.writer_matched(1, writer(1, 1), *due);
+  EXPECT_EQ(book.next_deadline(*due), *due + options.silent_grace);  // timed again for the new reader
+  book.sample(1, info("100"));
+  EXPECT_EQ(book.next_deadline(*due), std::nullopt);  // it spoke: nothing left to time
+  EXPECT_TRUE(table.find(id("100")));
+  // A new reader while devices are listed: its reconciliation is the deadline.
+  book.reader_made(*due + 1s);
+  EXPECT_EQ(book.next_deadline(*due + 1s), *due + 1s + options.reconcile_grace);
+}
+
+TEST_F(Book, ALostServerIsFoundFollowingOnlyTheBooksDeadlines) {
+  book.reader_made(t0 - 10s);
+  book.participant_alive(writer(1, 1).participant_guid, t0);
+  book.writer_matched(1, writer(1, 1), t0);
+  book.sample(1, info("100"));
+  EXPECT_EQ(book.next_deadline(t0), std::nullopt);
+  book.participant_gone(writer(1, 1).participant_guid, t0);  // its lease expired (a cut)
+  book.writer_left(1, {}, t0);
+  auto at = book.next_deadline(t0);  // the verdict on the suspect
+  ASSERT_TRUE(at);
+  EXPECT_FALSE(book.tick(*at, {}).refresh);
+  EXPECT_EQ(status().lost_servers, 1u);
+  book.participant_alive(writer(1, 1).participant_guid, t0 + 2s);  // heard again, its writers not
+  at = book.next_deadline(t0 + 2s);
+  ASSERT_TRUE(at);
+  EXPECT_LE(*at, t0 + 2500ms);  // the rematch grace, not the blind refresh 30 s on
+  while (at && !book.tick(*at, {}).refresh) at = book.next_deadline(*at);
+  ASSERT_TRUE(at);
+  EXPECT_EQ(*at, t0 + 2500ms);
+}

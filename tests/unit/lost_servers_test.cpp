@@ -201,3 +201,27 @@ TEST(LostServers, HeardAgainAndAnnouncingIsFound) {
   EXPECT_EQ(lost.size(), 0u);
   for (auto t = 5s; t < 60s; t += 1s) EXPECT_FALSE(lost.check(t0 + t).refresh);
 }
+
+// The main loop ticks only at next_check(): following it alone gives the same
+// refreshes as polling every 100 ms.
+TEST(LostServers, FollowingNextCheckGivesThePolledRefreshes) {
+  LostServers polled, followed;
+  for (LostServers* l : {&polled, &followed}) {
+    l->participant_alive(kServer, t0);
+    l->reader_made(t0);
+    l->participant_gone(kServer, t0);
+    l->writer_lost(kServer, t0);
+  }
+  const auto expected = refreshes(polled, 40min);
+  ASSERT_FALSE(expected.empty());
+  std::vector<std::chrono::milliseconds> got;
+  for (auto at = followed.next_check(t0); at && *at <= t0 + 40min; at = followed.next_check(*at))
+    if (followed.check(*at).refresh) got.push_back(std::chrono::ceil<std::chrono::milliseconds>(*at - t0));
+  // Polling sees each refresh at the first 100 ms step at or after its deadline.
+  ASSERT_EQ(got.size(), expected.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    EXPECT_LE(got[i], expected[i]);
+    EXPECT_GT(got[i] + 100ms, expected[i]);
+  }
+  EXPECT_EQ(followed.next_check(t0 + 40min), std::nullopt);  // given up: nothing left to time
+}
