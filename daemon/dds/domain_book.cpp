@@ -210,16 +210,21 @@ void DomainBook::unindex(const std::string& writer_guid, const std::string& id) 
 
 void DomainBook::remove_device(const std::string& id, model::RemovalReason reason, const std::string& why) {
   std::string by;  // the server a user knows it by: its name and address, not a GUID
+  std::string name;
+  std::vector<std::string> addresses;
   if (const auto dev = devices_.find(id); dev != devices_.end()) {
     for (const auto& [writer, server] : dev->second.announcers) unindex(writer, id);
     const model::Server server = dev->second.doc.server.value_or(model::Server{});
-    const std::string name = server.participant_name.value_or("");
-    const std::vector<std::string> addresses = server.addresses.value_or(std::vector<std::string>{});
+    name = server.participant_name.value_or("");
+    addresses = server.addresses.value_or(std::vector<std::string>{});
     if (!name.empty() || !addresses.empty())
       by = " (server '" + name + "'" + (addresses.empty() ? "" : " at " + addresses[0]) + ")";
   }
   log::info(prefix() + "device " + id + " removed (" + std::string(model::to_string(reason)) + "): " + why + by);
-  table_.remove(id, reason, why + by);
+  const auto event = table_.remove(id, reason, why + by);
+  if (event && event->reason == model::RemovalReason::lease_expired && !addresses.empty() &&
+      lease_losses_.size() < kMaxLeaseLosses)
+    lease_losses_.push_back({event->id, event->generation, name, std::move(addresses)});
   devices_.erase(id);
 }
 

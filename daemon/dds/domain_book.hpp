@@ -44,6 +44,15 @@ class MatchedWriters {
   std::vector<WriterHandle> handles_;
 };
 
+// A device removed because its server's lease ran out: its host is to be probed
+// (hung or gone), and the verdict joins the removal of `generation` in the table.
+struct LeaseLoss {
+  std::string entry_id;
+  std::uint64_t generation = 0;
+  std::string server;  // its participant's name, for the log
+  std::vector<std::string> addresses;
+};
+
 struct BookOptions {
   int domain = 0;
   // A device writer that matched but sent nothing by then had its broadcast
@@ -134,6 +143,11 @@ class DomainBook {
   // for writer_left(); read only when reconcile_due(now).
   Due tick(Clock::time_point now, const MatchedWriters& still_matched);
 
+  // The lease-expired removals since the last call (at most kMaxLeaseLosses kept:
+  // a server with many devices is probed once per device's removal otherwise).
+  std::vector<LeaseLoss> take_lease_losses() { return std::exchange(lease_losses_, {}); }
+  static constexpr std::size_t kMaxLeaseLosses = 256;
+
   // Removes this domain's devices from the table (leaving the domain for good).
   void forget_devices(model::RemovalReason reason);
   // The device with this topic-root as last announced (with its server), if any.
@@ -213,6 +227,7 @@ class DomainBook {
   std::optional<Clock::time_point> reconcile_at_;
   std::optional<model::RemovalReason> reconcile_reason_;  // why the next reconciliation removes
   LostServers lost_;
+  std::vector<LeaseLoss> lease_losses_;
   std::uint64_t accepted_ = 0, stopping_ = 0;
   std::map<std::string, std::uint64_t> rejected_;
 };

@@ -70,7 +70,8 @@ DomainSession::DomainSession(SharedTable& table, SessionOptions options)
         ShareOptions share = options_.share;
         share.book.domain = options_.domain;
         return share;
-      }()) {}
+      }()),
+      host_checks_(table, options_.domain) {}
 
 DomainSession::~DomainSession() { stop(); }
 
@@ -294,6 +295,7 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   }
   const MatchedWriters matched = reconciling ? matched_writers(reader_) : MatchedWriters{};
   DomainBook::Due due;
+  std::vector<LeaseLoss> lease_losses;
   std::set<std::string> present;                 // topic-roots in the table now
   std::map<std::string, nlohmann::json> eager;  // topic-root -> announcement, to describe
   {
@@ -302,12 +304,15 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
     // book's reconcile deadline.
     due = book_.tick(now, matched);
     if (due.refresh) ++refreshes_;
+    lease_losses = book_.take_lease_losses();
     present = book_.topic_roots();
     // Copied four times a second only where asked for: with 100 devices the copy of
     // every announcement was ~3.5 ms of CPU a second, most of what the daemon spent idle.
     if (options_.describe_eagerly && !due.refresh) eager = book_.announcements();
   }
   fetcher_.tick(now, [&](const std::string& topic_root) { return present.count(topic_root) > 0; });
+  host_checks_.add(std::move(lease_losses), now);
+  const Clock::duration wait = std::min<Clock::duration>(milliseconds(250), host_checks_.poll(now).value_or(hours(1)));
   for (const auto& [topic_root, announcement] : eager)
     if (!announcement.value("recovery", false)) fetcher_.prefetch(topic_root, announcement);
   if (due.refresh) {
@@ -318,7 +323,7 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
     delete_reader();
     create_reader();
   }
-  return milliseconds(250);
+  return wait;
 }
 
 // Cyclone calls these from its own (C) threads: an exception must not cross
