@@ -8,8 +8,10 @@ bridge, a switch) is lost by its lease, the daemon probes its host and says whic
 
 The verdict is in the removal's history record, the gone answer, the log and
 /metrics; the time from the removed event to the verdict is printed for the note."""
+import json
 import os
 import signal
+import subprocess
 import time
 
 import pytest
@@ -18,6 +20,7 @@ from conftest import EventStream, device_info, wait_for
 from netns import Lan
 from test_removal_reasons import LEASE_MARGIN_S, LEASE_S, dds_id, removed_within
 
+CLI = os.path.join(os.environ.get("RSD_BUILD_DIR", ""), "client", "rs-discover")
 VERDICT_WITHIN_S = 30.0  # bounds a failure only: ARP gives up after a few seconds
 
 
@@ -49,6 +52,14 @@ def start(lan, free_domain, daemon, realdds_server):
     return cam, server, d
 
 
+def doctor_says(d, device_id):
+    r = subprocess.run([CLI, "--endpoint", "unix:" + d.socket, "doctor", "--listen", "0", "--json"],
+                       capture_output=True, text=True, timeout=60)
+    found = [f for f in json.loads(r.stdout)["findings"] if f["topic"] == "gone" and f["text"].startswith(device_id)]
+    assert len(found) == 1, r.stdout
+    return found[0]
+
+
 def test_a_hung_server_on_a_live_host_is_judged_present(lan, free_domain, daemon, realdds_server):
     cam, server, d = start(lan, free_domain, daemon, realdds_server)
     events = EventStream(d)
@@ -65,6 +76,8 @@ def test_a_hung_server_on_a_live_host_is_judged_present(lan, free_domain, daemon
     m = d.request("/metrics")[2].decode()
     assert 'rsd_lease_expired_hosts_total{verdict="host-present"} 1' in m, m
     assert 'rsd_lease_expired_hosts_total{verdict="host-unreachable"} 0' in m, m
+    said = doctor_says(d, dds_id(free_domain, cam))
+    assert said["verdict"] == "warn" and "the camera's server hung (power-cycle a PoE camera)" in said["text"], said
 
 
 def test_a_host_cut_off_at_the_switch_is_judged_unreachable(lan, free_domain, daemon, realdds_server):
@@ -78,3 +91,5 @@ def test_a_host_cut_off_at_the_switch_is_judged_unreachable(lan, free_domain, da
     m = d.request("/metrics")[2].decode()
     assert 'rsd_lease_expired_hosts_total{verdict="host-unreachable"} 1' in m, m
     assert 'rsd_lease_expired_hosts_total{verdict="host-present"} 0' in m, m
+    said = doctor_says(d, dds_id(free_domain, cam))
+    assert "check the cable, the switch or the power" in said["text"], said
