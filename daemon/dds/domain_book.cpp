@@ -134,6 +134,8 @@ void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann:
     devices_of_writer_[w.guid].insert(id);
   }
   doc[model::key::server] = std::move(server);
+  doc.erase(model::key::unresponsive);  // the daemon's to say, as in-use
+  if (unresponsive_.erase(id)) log::info(prefix() + "device " + id + " heard again within the removal grace: kept");
   // Who uses it is the daemon's to say (a device-info's own "in-use" is not kept),
   // and stays across announcements.
   if (device.doc.in_use) doc[model::key::in_use] = model::to_json(*device.doc.in_use);
@@ -192,9 +194,17 @@ void DomainBook::participant_gone(const std::string& guid, Clock::time_point now
   for (const auto& [id, device] : devices_)
     for (const auto& [writer, server] : device.announcers)
       if (participant_of(writer) == guid) gone.emplace_back(id, writer);
-  for (const auto& [id, writer] : gone)
-    drop_announcer(id, writer, model::RemovalReason::lease_expired,
-                   "its participant " + guid + " is gone (left, or its lease expired)");
+  for (const auto& [id, writer] : gone) {
+    const auto dev = devices_.find(id);
+    if (dev == devices_.end()) continue;
+    const auto& list = dev->second.announcers;
+    const bool only_this =
+        std::all_of(list.begin(), list.end(), [&](const auto& a) { return participant_of(a.first) == guid; });
+    if (options_.removal_grace.count() > 0 && only_this) mark_unresponsive(id, now);
+    else
+      drop_announcer(id, writer, model::RemovalReason::lease_expired,
+                     "its participant " + guid + " is gone (left, or its lease expired)");
+  }
   // A server that announced cameras and went without 'stopping' (a crash, a cut).
   if (!gone.empty()) lost_.writer_lost(guid, now);
   for (auto it = writers_.begin(); it != writers_.end();)
@@ -283,6 +293,7 @@ void DomainBook::sweep(const MatchedWriters& still_matched, const std::string* o
   }
   std::vector<std::pair<std::string, std::string>> gone;  // device id, writer GUID
   for (const auto& [id, device] : devices_) {
+    if (unresponsive_.count(id)) continue;  // its grace decides
     if (device.announcers.empty() && !only) gone.emplace_back(id, std::string());  // its writer was never known
     for (const auto& [writer, server] : device.announcers)
       if (!alive.count(writer) && (!only || writer == *only)) gone.emplace_back(id, writer);
@@ -325,6 +336,7 @@ void DomainBook::participant_made() {
 
 DomainBook::Due DomainBook::tick(Clock::time_point now, const MatchedWriters& still_matched) {
   Due due;
+  end_graces(now);
   const auto verdict = lost_.check(now);
   for (const auto& guid : verdict.newly_lost)
     log::notice(prefix() + "server " + guid +
@@ -392,6 +404,7 @@ std::map<std::string, PublisherCounts> DomainBook::publishers(Clock::time_point 
 }
 
 void DomainBook::forget_devices(model::RemovalReason reason) {
+  unresponsive_.clear();
   for (const auto& [id, device] : devices_) table_.remove(id, reason);
   devices_.clear();
   per_participant_.clear();

@@ -86,6 +86,10 @@ struct BookOptions {
   // takes milliseconds; the grace is also how late a server killed during a
   // refresh is noticed (it cannot unmatch a reader it never matched).
   std::chrono::milliseconds reconcile_grace{2000};
+  // removal-grace: a device whose server's lease ran out stays listed, marked
+  // unresponsive, this long, and is not removed if heard again by then (0: removed
+  // at once, as realdds does). A lossy link then does not make a dashboard flicker.
+  std::chrono::milliseconds removal_grace{0};
   LostServerTimes lost;
 };
 
@@ -228,6 +232,10 @@ class DomainBook {
   std::optional<model::RemovalReason> reconcile_reason_;  // why the next reconciliation removes
   LostServers lost_;
   std::vector<LeaseLoss> lease_losses_;
+  // Devices in their removal grace: device id -> when they are removed.
+  std::map<std::string, Clock::time_point> unresponsive_;
+  void mark_unresponsive(const std::string& id, Clock::time_point now);
+  void end_graces(Clock::time_point now);
   std::uint64_t accepted_ = 0, stopping_ = 0;
   std::map<std::string, std::uint64_t> rejected_;
 };
