@@ -268,7 +268,8 @@ void DomainBook::drop_writer_devices(const std::string& writer_guid, Clock::time
   if (of == devices_of_writer_.end()) return;
   const std::set<std::string> ids = of->second;  // drop_announcer changes the index
   for (const auto& id : ids)
-    if (drop_announcer(id, writer_guid, model::RemovalReason::writer_gone, "its writer " + writer_guid + " is gone"))
+    if (!unresponsive_.count(id) &&  // its grace decides
+        drop_announcer(id, writer_guid, model::RemovalReason::writer_gone, "its writer " + writer_guid + " is gone"))
       lost_.writer_lost(participant_of(writer_guid), now);  // gone with its writer, not by 'stopping'
 }
 
