@@ -18,17 +18,23 @@ def next_about(events, device_id, timeout):
             return ev
 
 
-def test_heard_again_within_the_grace_is_never_removed(free_domain, daemon, realdds_server):
-    cam = device_info(41)
-    server = realdds_server(free_domain, [cam], name="stalling")
-    d = daemon([free_domain], extra=["--removal-grace", "30"])
+def stalled(free_domain, daemon, realdds_server, n, grace):
+    """A camera listed, then its server SIGSTOPped until the camera is marked."""
+    cam = device_info(n)
+    server = realdds_server(free_domain, [cam], name=f"stalling-{n}")
+    d = daemon([free_domain], extra=["--removal-grace", str(grace)])
     dev = dds_id(free_domain, cam)
     wait_for(lambda: d.device_ids() == [dev], timeout=15, what="the camera listed")
     events = EventStream(d)
     server.proc.send_signal(signal.SIGSTOP)
+    ev = next_about(events, dev, LEASE_S + LEASE_MARGIN_S)
+    assert ev["event"] == "changed" and ev["json"].get("unresponsive") is True, ev
+    return server, d, dev, events
+
+
+def test_heard_again_within_the_grace_is_never_removed(free_domain, daemon, realdds_server):
+    server, d, dev, events = stalled(free_domain, daemon, realdds_server, 41, 30)
     try:
-        ev = next_about(events, dev, LEASE_S + LEASE_MARGIN_S)
-        assert ev["event"] == "changed" and ev["json"].get("unresponsive") is True, ev
         assert d.get_json(f"/v1/devices/{dev}")["unresponsive"] is True
     finally:
         server.proc.send_signal(signal.SIGCONT)
@@ -43,17 +49,9 @@ def test_heard_again_within_the_grace_is_never_removed(free_domain, daemon, real
 
 
 def test_not_heard_again_is_removed_when_the_grace_ends(free_domain, daemon, realdds_server):
-    cam = device_info(42)
-    server = realdds_server(free_domain, [cam], name="hung")
-    d = daemon([free_domain], extra=["--removal-grace", "4"])
-    dev = dds_id(free_domain, cam)
-    wait_for(lambda: d.device_ids() == [dev], timeout=15, what="the camera listed")
-    events = EventStream(d)
-    server.proc.send_signal(signal.SIGSTOP)
+    server, d, dev, events = stalled(free_domain, daemon, realdds_server, 42, 4)
+    marked = time.monotonic()
     try:
-        ev = next_about(events, dev, LEASE_S + LEASE_MARGIN_S)
-        assert ev["event"] == "changed" and ev["json"].get("unresponsive") is True, ev
-        marked = time.monotonic()
         ev = next_about(events, dev, 4 + 5)
         grace = time.monotonic() - marked
         print(f"unresponsive -> removed(lease-expired) after {grace:.3f} s (grace 4 s)")
