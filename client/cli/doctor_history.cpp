@@ -1,5 +1,6 @@
 // rs-discover doctor's look at the daemon's history (GET /v1/history): cameras that
-// left (why, when) and cameras that flap (lost by lease and back within a minute).
+// left (why, when, and for one lost by lease whether its host still answers) and
+// cameras that flap (lost by lease and back within a minute).
 #include "doctor.hpp"
 
 #include <map>
@@ -40,10 +41,17 @@ void check_history(Report& r, const std::string& history_json) {
     // lease, with the network, or refused: that explains a missing camera.
     const std::string reason = s.last.value("reason", "?");
     const bool meant = reason != "lease-expired" && reason != "interface-gone" && reason != "refused";
+    // A lease-expired camera's host, probed by the daemon after the removal.
+    const std::string host = s.last.value("host-check", "");
+    const std::string host_words =
+        host == "host-present"     ? "; its host still answers: the camera's server hung (power-cycle a PoE camera)"
+        : host == "host-unreachable" ? "; its host does not answer: check the cable, the switch or the power"
+                                     : "";
     if (s.last.value("event", "") == "removed" && gone++ < kMostNamed)
       r.add(meant ? Verdict::info : Verdict::warn, "gone",
             id + " left at " + s.last.value("at", "") + ": " + reason +
-                (s.server.empty() ? "" : " (" + s.server + ")") + " ('rs-discover history " + id + "')");
+                (s.server.empty() ? "" : " (" + s.server + ")") + host_words + " ('rs-discover history " + id +
+                "')");
   }
   if (gone > kMostNamed) r.add(Verdict::info, "gone", std::to_string(gone - kMostNamed) + " more cameras left");
   if (flapping > kMostNamed) r.add(Verdict::info, "flaps", std::to_string(flapping - kMostNamed) + " more cameras flap");

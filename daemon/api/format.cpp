@@ -380,6 +380,11 @@ std::string render_metrics(const MetricsInput& in) {
   w.single("rsd_device_returns_total", "counter", "Cameras listed again after they were removed.", in.returns);
   w.single("rsd_device_flaps_total", "counter",
            "Cameras lost by lease and listed again within a minute (a lossy link, a stalling server).", in.flaps);
+  w.family("rsd_lease_expired_hosts_total", "counter",
+           "Hosts of cameras lost by lease, probed after: still there (a hung server) or unreachable.");
+  for (const auto v : model::kHostVerdicts)
+    w.sample("rsd_lease_expired_hosts_total", {{"verdict", std::string(model::to_string(v))}},
+             in.hosts[static_cast<std::size_t>(v)]);
   w.single("rsd_gone_devices", "gauge", "Cameras that left and are still findable as gone.", in.gone);
   w.single("rsd_history_changes", "gauge", "Presence changes the history keeps, every camera.", in.history);
   // Each expected camera at 0 or 1 from the first scrape, so an alert on 0 fires for

@@ -162,6 +162,7 @@ struct MetricsInput {
   std::array<std::uint64_t, model::kRemovalReasons.size()> removals{};
   std::uint64_t returns = 0;
   std::uint64_t flaps = 0;
+  std::array<std::uint64_t, model::kHostVerdicts.size()> hosts{};  // lease-expired hosts judged
   std::size_t gone = 0;
   std::size_t history = 0;
   model::ExpectedReport expected;  // none expected: no rsd_expected_camera_present samples

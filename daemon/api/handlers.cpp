@@ -312,6 +312,7 @@ void Handlers::handle_metrics(const ApiRequest& req, ApiResponse& res) {
   in.removals = counts.removals;
   in.returns = counts.returns;
   in.flaps = counts.flaps;
+  in.hosts = counts.hosts;
   in.gone = counts.gone;
   in.history = counts.history;
   in.events_sent = events_sent.load();

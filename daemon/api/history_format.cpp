@@ -34,6 +34,7 @@ nlohmann::json to_json(const HistoryRecord& c) {
   if (c.reason) out[model::key::reason] = model::to_string(*c.reason);
   if (c.type == EventType::added) out[model::key::arrival] = c.back ? model::kArrivalBack : model::kArrivalNew;
   if (c.flap) out[model::key::flap] = true;
+  if (c.host) out[model::key::host_check] = model::to_string(*c.host);
   if (!c.detail.empty()) out[model::key::detail] = c.detail;
   return out;
 }
@@ -60,6 +61,7 @@ nlohmann::json gone_json(const GoneEntry& g) {
                         {model::key::last_seen, g.last->device.last_seen.value_or("")},
                         {model::key::device, g.last->json()}};
   if (!g.detail.empty()) out[model::key::detail] = g.detail;
+  if (g.host) out[model::key::host_check] = model::to_string(*g.host);
   return out;
 }
 

@@ -212,6 +212,9 @@ Options:
       --describe-eagerly N|all
                              describe the cameras of domain N (repeat) or of every domain
                              as they appear, not only when asked (default: when asked)
+      --removal-grace S      keep a network camera whose server's lease ran out listed,
+                             marked unresponsive, S seconds before removing it; heard
+                             again by then, it is not removed (default: 0, at once)
       --expect [NAME=]SERIAL|[NAME=]TOPIC-ROOT
                              a camera this host is built with (repeat; front=123456,
                              wrist=realsense/D555_123): /v1/expected, /healthz, /metrics
@@ -224,8 +227,8 @@ Config file keys: domains, socket, socket-group, http, usb, share-usb, participa
 log-level, cyclonedds-config, max-devices-per-participant, max-devices-per-domain,
 max-writers-per-participant, max-writers-per-domain, interfaces and
 exclude-interfaces (lists), describe-timeout, describe-eagerly (true, false or a list of
-domains), allowed-hosts (a list), max-clients, expect (a list); otherwise the same
-meanings as the flags. SIGHUP applies domains, usb, log-level, interfaces,
+domains), removal-grace, allowed-hosts (a list), max-clients, expect (a list); otherwise
+the same meanings as the flags. SIGHUP applies domains, usb, log-level, interfaces,
 exclude-interfaces and expect; the other keys take effect on restart.
 
 API: GET /v1/devices, /v1/devices/{id}, /v1/devices/{id}/description,

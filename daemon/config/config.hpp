@@ -56,6 +56,9 @@ struct Config {
   // Describe the devices of these domains as they appear (all: every domain).
   bool describe_eagerly_all = false;
   std::vector<int> describe_eagerly;
+  // A DDS camera whose server's lease ran out stays listed, `unresponsive`, this long
+  // (seconds; 0: removed at once, as librealsense does).
+  int removal_grace_s = 0;
   // HTTP answers these Host names besides localhost and its own address ("*": any).
   std::vector<std::string> allowed_hosts;
   // API clients at once, over both listeners; beyond, a 503 with Retry-After.

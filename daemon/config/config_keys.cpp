@@ -102,6 +102,15 @@ int parse_seconds(const std::string& text, const std::string& where) {
   return n;
 }
 
+// The removal grace: 0 (off, realdds' own behaviour) to 300 seconds.
+int parse_grace(const std::string& text, const std::string& where) {
+  int n = -1;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), n);
+  if (ec != std::errc() || end != text.data() + text.size() || n < 0 || n > 300)
+    throw ConfigError(where + ": must be a whole number of seconds from 0 to 300, not '" + text + "'");
+  return n;
+}
+
 // A cap: a whole number from 1 to 1,000,000.
 std::size_t parse_limit(const std::string& text, const std::string& where) {
   std::size_t used = 0;
@@ -308,6 +317,9 @@ const ConfigKey kKeys[] = {
      },
      copy<&Config::describe_eagerly_all, &Config::describe_eagerly>,
      same<&Config::describe_eagerly_all, &Config::describe_eagerly>},
+    {"removal-grace", "removal-grace", '\0', true, Reload::restart, number_from_file<&Config::removal_grace_s, parse_grace>,
+     text_from_flag<&Config::removal_grace_s, parse_grace>, copy<&Config::removal_grace_s>,
+     same<&Config::removal_grace_s>},
     {"expect", "expect", '\0', true, Reload::live, expect_from_file, expect_from_flag, copy<&Config::expect>,
      same<&Config::expect>},
 };

@@ -21,6 +21,7 @@ DaemonOptions daemon_options(const Config& config, std::string_view cyclone_uri)
   session.book.max_writers_per_participant = config.max_writers_per_participant;
   session.book.max_writers_per_domain = config.max_writers_per_domain;
   session.describe_timeout = std::chrono::seconds(config.describe_timeout_s);
+  session.book.removal_grace = std::chrono::seconds(config.removal_grace_s);
   session.describe_eagerly = config.describe_eagerly_all;
   session.describe_eagerly_in = {config.describe_eagerly.begin(), config.describe_eagerly.end()};
   session.share.share = config.share_usb;

@@ -134,6 +134,8 @@ void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann:
     devices_of_writer_[w.guid].insert(id);
   }
   doc[model::key::server] = std::move(server);
+  doc.erase(model::key::unresponsive);  // the daemon's to say, as in-use
+  if (unresponsive_.erase(id)) log::info(prefix() + "device " + id + " heard again within the removal grace: kept");
   // Who uses it is the daemon's to say (a device-info's own "in-use" is not kept),
   // and stays across announcements.
   if (device.doc.in_use) doc[model::key::in_use] = model::to_json(*device.doc.in_use);
@@ -192,9 +194,17 @@ void DomainBook::participant_gone(const std::string& guid, Clock::time_point now
   for (const auto& [id, device] : devices_)
     for (const auto& [writer, server] : device.announcers)
       if (participant_of(writer) == guid) gone.emplace_back(id, writer);
-  for (const auto& [id, writer] : gone)
-    drop_announcer(id, writer, model::RemovalReason::lease_expired,
-                   "its participant " + guid + " is gone (left, or its lease expired)");
+  for (const auto& [id, writer] : gone) {
+    const auto dev = devices_.find(id);
+    if (dev == devices_.end()) continue;
+    const auto& list = dev->second.announcers;
+    const bool only_this =
+        std::all_of(list.begin(), list.end(), [&](const auto& a) { return participant_of(a.first) == guid; });
+    if (options_.removal_grace.count() > 0 && only_this) mark_unresponsive(id, now);
+    else
+      drop_announcer(id, writer, model::RemovalReason::lease_expired,
+                     "its participant " + guid + " is gone (left, or its lease expired)");
+  }
   // A server that announced cameras and went without 'stopping' (a crash, a cut).
   if (!gone.empty()) lost_.writer_lost(guid, now);
   for (auto it = writers_.begin(); it != writers_.end();)
@@ -210,16 +220,21 @@ void DomainBook::unindex(const std::string& writer_guid, const std::string& id) 
 
 void DomainBook::remove_device(const std::string& id, model::RemovalReason reason, const std::string& why) {
   std::string by;  // the server a user knows it by: its name and address, not a GUID
+  std::string name;
+  std::vector<std::string> addresses;
   if (const auto dev = devices_.find(id); dev != devices_.end()) {
     for (const auto& [writer, server] : dev->second.announcers) unindex(writer, id);
     const model::Server server = dev->second.doc.server.value_or(model::Server{});
-    const std::string name = server.participant_name.value_or("");
-    const std::vector<std::string> addresses = server.addresses.value_or(std::vector<std::string>{});
+    name = server.participant_name.value_or("");
+    addresses = server.addresses.value_or(std::vector<std::string>{});
     if (!name.empty() || !addresses.empty())
       by = " (server '" + name + "'" + (addresses.empty() ? "" : " at " + addresses[0]) + ")";
   }
   log::info(prefix() + "device " + id + " removed (" + std::string(model::to_string(reason)) + "): " + why + by);
-  table_.remove(id, reason, why + by);
+  const auto event = table_.remove(id, reason, why + by);
+  if (event && event->reason == model::RemovalReason::lease_expired && !addresses.empty() &&
+      lease_losses_.size() < kMaxLeaseLosses)
+    lease_losses_.push_back({event->id, event->generation, name, std::move(addresses)});
   devices_.erase(id);
 }
 
@@ -253,7 +268,8 @@ void DomainBook::drop_writer_devices(const std::string& writer_guid, Clock::time
   if (of == devices_of_writer_.end()) return;
   const std::set<std::string> ids = of->second;  // drop_announcer changes the index
   for (const auto& id : ids)
-    if (drop_announcer(id, writer_guid, model::RemovalReason::writer_gone, "its writer " + writer_guid + " is gone"))
+    if (!unresponsive_.count(id) &&  // its grace decides
+        drop_announcer(id, writer_guid, model::RemovalReason::writer_gone, "its writer " + writer_guid + " is gone"))
       lost_.writer_lost(participant_of(writer_guid), now);  // gone with its writer, not by 'stopping'
 }
 
@@ -278,6 +294,7 @@ void DomainBook::sweep(const MatchedWriters& still_matched, const std::string* o
   }
   std::vector<std::pair<std::string, std::string>> gone;  // device id, writer GUID
   for (const auto& [id, device] : devices_) {
+    if (unresponsive_.count(id)) continue;  // its grace decides
     if (device.announcers.empty() && !only) gone.emplace_back(id, std::string());  // its writer was never known
     for (const auto& [writer, server] : device.announcers)
       if (!alive.count(writer) && (!only || writer == *only)) gone.emplace_back(id, writer);
@@ -320,6 +337,7 @@ void DomainBook::participant_made() {
 
 DomainBook::Due DomainBook::tick(Clock::time_point now, const MatchedWriters& still_matched) {
   Due due;
+  end_graces(now);
   const auto verdict = lost_.check(now);
   for (const auto& guid : verdict.newly_lost)
     log::notice(prefix() + "server " + guid +
@@ -373,6 +391,7 @@ std::optional<DomainBook::Clock::time_point> DomainBook::next_deadline(Clock::ti
     if (t > now && (!next || t < *next)) next = t;
   };
   if (reconcile_at_) consider(*reconcile_at_);
+  for (const auto& [id, until] : unresponsive_) consider(until);  // removal graces ending
   for (const auto& [h, w] : writers_)
     if (!w.sent && !idle_writers_.count(w.identity.guid)) consider(w.matched_at + options_.silent_grace);
   return next;
@@ -399,6 +418,7 @@ std::map<std::string, PublisherCounts> DomainBook::publishers(Clock::time_point 
 }
 
 void DomainBook::forget_devices(model::RemovalReason reason) {
+  unresponsive_.clear();
   for (const auto& [id, device] : devices_) table_.remove(id, reason);
   devices_.clear();
   per_participant_.clear();

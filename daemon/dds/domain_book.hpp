@@ -44,6 +44,15 @@ class MatchedWriters {
   std::vector<WriterHandle> handles_;
 };
 
+// A device removed because its server's lease ran out: its host is to be probed
+// (hung or gone), and the verdict joins the removal of `generation` in the table.
+struct LeaseLoss {
+  std::string entry_id;
+  std::uint64_t generation = 0;
+  std::string server;  // its participant's name, for the log
+  std::vector<std::string> addresses;
+};
+
 struct BookOptions {
   int domain = 0;
   // A device writer that matched but sent nothing by then had its broadcast
@@ -77,6 +86,10 @@ struct BookOptions {
   // takes milliseconds; the grace is also how late a server killed during a
   // refresh is noticed (it cannot unmatch a reader it never matched).
   std::chrono::milliseconds reconcile_grace{2000};
+  // removal-grace: a device whose server's lease ran out stays listed, marked
+  // unresponsive, this long, and is not removed if heard again by then (0: removed
+  // at once, as realdds does). A lossy link then does not make a dashboard flicker.
+  std::chrono::milliseconds removal_grace{0};
   LostServerTimes lost;
 };
 
@@ -137,6 +150,11 @@ class DomainBook {
   // may turn out silent, lost servers); nothing: no timer is set. Every timer the
   // book keeps has its place here, or the main loop sleeps past it.
   std::optional<Clock::time_point> next_deadline(Clock::time_point now) const;
+
+  // The lease-expired removals since the last call (at most kMaxLeaseLosses kept:
+  // a server with many devices is probed once per device's removal otherwise).
+  std::vector<LeaseLoss> take_lease_losses() { return std::exchange(lease_losses_, {}); }
+  static constexpr std::size_t kMaxLeaseLosses = 256;
 
   // Removes this domain's devices from the table (leaving the domain for good).
   void forget_devices(model::RemovalReason reason);
@@ -217,6 +235,11 @@ class DomainBook {
   std::optional<Clock::time_point> reconcile_at_;
   std::optional<model::RemovalReason> reconcile_reason_;  // why the next reconciliation removes
   LostServers lost_;
+  std::vector<LeaseLoss> lease_losses_;
+  // Devices in their removal grace: device id -> when they are removed.
+  std::map<std::string, Clock::time_point> unresponsive_;
+  void mark_unresponsive(const std::string& id, Clock::time_point now);
+  void end_graces(Clock::time_point now);
   std::uint64_t accepted_ = 0, stopping_ = 0;
   std::map<std::string, std::uint64_t> rejected_;
 };

@@ -71,7 +71,8 @@ DomainSession::DomainSession(SharedTable& table, SessionOptions options)
         ShareOptions share = options_.share;
         share.book.domain = options_.domain;
         return share;
-      }()) {}
+      }()),
+      host_checks_(table, options_.domain) {}
 
 DomainSession::~DomainSession() { stop(); }
 
@@ -296,6 +297,7 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   }
   const MatchedWriters matched = reconciling ? matched_writers(reader_) : MatchedWriters{};
   DomainBook::Due due;
+  std::vector<LeaseLoss> lease_losses;
   std::set<std::string> present;                 // topic-roots in the table now
   std::map<std::string, nlohmann::json> eager;  // topic-root -> announcement, to describe
   std::optional<Clock::time_point> book_next;
@@ -305,6 +307,7 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
     // book's reconcile deadline.
     due = book_.tick(now, matched);
     if (due.refresh) ++refreshes_;
+    lease_losses = book_.take_lease_losses();
     present = book_.topic_roots();
     // Copied only where asked for: with 100 devices, copying every announcement at
     // each turn was most of what an idle daemon spent.
@@ -312,6 +315,8 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
     book_next = book_.next_deadline(now);
   }
   fetcher_.tick(now, [&](const std::string& topic_root) { return present.count(topic_root) > 0; });
+  host_checks_.add(std::move(lease_losses), now);
+  if (const auto probe_next = host_checks_.poll(now)) wait = std::min(wait, *probe_next);
   for (const auto& [topic_root, announcement] : eager)
     if (!announcement.value("recovery", false)) fetcher_.prefetch(topic_root, announcement);
   if (due.refresh) {
@@ -325,7 +330,7 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
     book_next = book_.next_deadline(now);  // the new reader set a reconciliation
   }
   if (book_next) wait = std::min(wait, *book_next - now);
-  if (const auto fetch_next = fetcher_.next_deadline(Clock::now())) wait = std::min(wait, *fetch_next - now);
+  if (const auto fetch_next = fetcher_.next_deadline(now)) wait = std::min(wait, *fetch_next - now);
   return wait;
 }
 

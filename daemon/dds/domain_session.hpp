@@ -6,6 +6,7 @@
 #include "dds/domain_book.hpp"
 #include "dds/description_fetcher.hpp"
 #include "dds/domain_status.hpp"
+#include "dds/host_checks.hpp"
 #include "dds/share_session.hpp"
 #include "net/interfaces.hpp"
 #include "table/shared_table.hpp"
@@ -170,6 +171,7 @@ class DomainSession {
   DescriptionFetcher fetcher_;  // its own lock: never taken while holding mutex_
   ShareSession share_;          // its own lock: never taken while holding mutex_
   std::map<std::string, nlohmann::json> usb_cameras_;  // what share_usb() was last given
+  HostChecks host_checks_;      // main thread only
   std::optional<Clock::time_point> first_reader_at_;  // kept across rebuilds
   std::uint64_t rebuilds_ = 0, refreshes_ = 0;
   std::uint64_t network_changes_ = 0;

@@ -199,8 +199,9 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
     events.push_back(record(std::move(removed)));
     if (!events.back().reason) continue;
     const DeviceEvent& ev = events.back();
-    note(entry_id, HistoryRecord{ev.generation, now, {}, EventType::removed, ev.reason, false, false, removal->detail});
-    gone_[entry_id] = GoneEntry{ev.entry, *ev.reason, now, removal->detail, ev.generation};
+    note(entry_id,
+         HistoryRecord{ev.generation, now, {}, EventType::removed, ev.reason, false, false, removal->detail, {}});
+    gone_[entry_id] = GoneEntry{ev.entry, *ev.reason, now, removal->detail, ev.generation, {}};
     gone_order_[ev.generation] = entry_id;
     while (gone_.size() > limits_.gone) drop_gone(gone_.find(gone_order_.begin()->second));
   }
@@ -228,7 +229,7 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
         ++cameras_[entry_id].flaps;
       }
       note(entry_id, HistoryRecord{events.back().generation, now, {}, EventType::added, std::nullopt,
-                                   events.back().back, flap, {}});
+                                   events.back().back, flap, {}, {}});
       continue;
     }
     const bool changed = !same_but_timestamps(model::to_json(it->second->device), doc);

@@ -69,6 +69,7 @@ struct HistoryRecord {
   bool back = false;                           // added after being gone
   bool flap = false;                           // added: back within the flap window of a lease-expired
   std::string detail;                          // removed: the source's words on why
+  std::optional<model::HostVerdict> host;      // lease-expired: judged after the removal
 };
 
 // A camera that left: findable by its id, serial or topic-root until it comes back
@@ -79,6 +80,7 @@ struct GoneEntry {
   std::string removed_at;
   std::string detail;
   std::uint64_t generation = 0;  // of its removed event
+  std::optional<model::HostVerdict> host;  // as its history record's
 };
 
 // A camera's history: its latest changes, oldest first, and how often it was removed,
@@ -98,6 +100,7 @@ struct TableCounts {
   std::uint64_t flaps = 0;    // of those, lost by lease and back within the flap window
   std::size_t gone = 0;
   std::size_t history = 0;  // changes kept
+  std::array<std::uint64_t, model::kHostVerdicts.size()> hosts{};  // lease-expired removals judged, by verdict
 };
 
 // Bounds of the history, so that cameras coming and going for months cannot grow the
@@ -203,6 +206,10 @@ class DeviceTable {
   std::optional<CameraHistory> history(const std::string& key) const;
   // Every change kept after `generation`, oldest first, at most `max`.
   std::vector<HistoryRecord> history_since(std::uint64_t generation, std::size_t max) const;
+  // The verdict on the host of a camera removed by its lease (the removal of
+  // generation `removal`, entry `entry_id`): into that history record and gone entry,
+  // and counted. False when the table no longer keeps that removal (counted still).
+  bool judge_host(const std::string& entry_id, std::uint64_t removal, model::HostVerdict verdict);
   // Drops the gone entries removed before `cutoff_iso8601` (the same form as `at`).
   void expire_gone(const std::string& cutoff_iso8601);
   std::size_t gone_size() const { return gone_.size(); }

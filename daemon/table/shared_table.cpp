@@ -40,6 +40,11 @@ std::optional<DeviceEvent> SharedTable::remove(const std::string& id, model::Rem
   return event;
 }
 
+bool SharedTable::judge_host(const std::string& entry_id, std::uint64_t removal, model::HostVerdict verdict) {
+  std::lock_guard lock(mutex_);
+  return table_.judge_host(entry_id, removal, verdict);
+}
+
 std::optional<DeviceEvent> SharedTable::hold(int owner, const std::string& id, nlohmann::json doc) {
   std::optional<DeviceEvent> event;
   {

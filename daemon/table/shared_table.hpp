@@ -37,6 +37,8 @@ class SharedTable {
   std::optional<DeviceEvent> hold(int owner, const std::string& id, nlohmann::json doc);
   // `reason`: why, if this was the last owner holding it.
   std::optional<DeviceEvent> release(int owner, const std::string& id, model::RemovalReason reason);
+  // DeviceTable::judge_host.
+  bool judge_host(const std::string& entry_id, std::uint64_t removal, model::HostVerdict verdict);
   std::vector<DeviceEvent> remove_if(const std::function<bool(const model::Device&)>& pred,
                                      model::RemovalReason reason);
 

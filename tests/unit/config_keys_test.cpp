@@ -55,6 +55,7 @@ const std::map<std::string, Sample>& samples() {
       {"max-writers-per-domain", {"5000", {"--max-writers-per-domain", "6"}}},
       {"describe-timeout", {"5", {"--describe-timeout", "9"}}},
       {"describe-eagerly", {"[0, 5]", {"--describe-eagerly", "all"}}},
+      {"removal-grace", {"5", {"--removal-grace", "0"}}},
       {"expect", {"[\"front=111\"]", {"--expect", "wrist=222", "--expect", "realsense/D555_333"}}},
   };
   return s;
@@ -96,7 +97,7 @@ TEST(ConfigKeys, RestartOnlyIsWhatReloadWarnsAbout) {
   const std::vector<std::string> restart_only{
       "socket", "socket-group", "http", "allowed-hosts", "max-clients", "share-usb", "participant-name", "cyclonedds-config",
       "max-devices-per-participant", "max-devices-per-domain", "max-writers-per-participant",
-      "max-writers-per-domain", "describe-timeout", "describe-eagerly"};
+      "max-writers-per-domain", "describe-timeout", "describe-eagerly", "removal-grace"};
   const Config running;
   Config all;
   for (const auto& k : rsd::config_keys()) {
@@ -144,7 +145,7 @@ TEST(ConfigKeys, TheFileSetsEveryKeyAndFlagsWinForEveryKey) {
       "domains", "socket", "socket-group", "http", "allowed-hosts", "max-clients", "participant-name", "interfaces",
       "exclude-interfaces", "cyclonedds-config", "log-level", "max-devices-per-participant",
       "max-devices-per-domain", "max-writers-per-participant", "max-writers-per-domain", "describe-timeout",
-      "describe-eagerly", "expect"}));
+      "describe-eagerly", "removal-grace", "expect"}));
   EXPECT_EQ(both.domains, (std::vector<int>{3, 4}));
   EXPECT_EQ(both.allowed_hosts, (std::vector<std::string>{"b.example", "c.example"}));
   EXPECT_TRUE(both.exclude_interfaces.empty());
@@ -216,7 +217,7 @@ std::string options_text(const rsd::DaemonOptions& o) {
   out << s.participant_name << ';' << s.cyclone_config << ';' << s.interfaces_from_cyclone_config << ';'
       << s.book.max_devices_per_participant << ';' << s.book.max_devices_per_domain << ';'
       << s.book.max_writers_per_participant << ';' << s.book.max_writers_per_domain << ';'
-      << s.describe_timeout.count() << ';' << s.describe_eagerly << ';' << s.share.share << ';';
+      << s.describe_timeout.count() << ';' << s.book.removal_grace.count() << ';' << s.describe_eagerly << ';' << s.share.share << ';';
   list(s.describe_eagerly_in);
   list(o.interfaces.include);
   list(o.interfaces.exclude);
@@ -246,7 +247,7 @@ TEST(DaemonOptions, EachValueLandsWhereItsPartReadsIt) {
       "http": "[::1]:9002", "allowed-hosts": ["a.example"], "max-clients": 64, "participant-name": "p",
       "interfaces": ["eth1"], "exclude-interfaces": ["eth9"], "max-devices-per-participant": 16,
       "max-devices-per-domain": 64, "max-writers-per-participant": 7, "max-writers-per-domain": 6,
-      "describe-timeout": 5, "describe-eagerly": [0, 5], "share-usb": true})",
+      "describe-timeout": 5, "describe-eagerly": [0, 5], "share-usb": true, "removal-grace": 7})",
                          c);
   const auto o = rsd::daemon_options(c, "");
   EXPECT_EQ(o.domains, (std::vector<int>{3, 7}));
@@ -258,6 +259,7 @@ TEST(DaemonOptions, EachValueLandsWhereItsPartReadsIt) {
   EXPECT_EQ(o.session.book.max_writers_per_participant, 7u);
   EXPECT_EQ(o.session.book.max_writers_per_domain, 6u);
   EXPECT_EQ(o.session.describe_timeout, std::chrono::seconds(5));
+  EXPECT_EQ(o.session.book.removal_grace, std::chrono::seconds(7));
   EXPECT_FALSE(o.session.describe_eagerly);
   EXPECT_EQ(o.session.describe_eagerly_in, (std::set<int>{0, 5}));
   EXPECT_TRUE(o.session.share.share);

@@ -206,3 +206,28 @@ TEST(TableHistory, LostByLeaseAndBackWithinAMinuteIsAFlap) {
   EXPECT_FALSE(h->changes[4].flap);
   EXPECT_FALSE(h->changes[6].flap);
 }
+
+TEST(TableHistory, HostVerdictJoinsItsRemovalOnlyAndIsCounted) {
+  using rsd::model::HostVerdict;
+  DeviceTable t;
+  t.upsert("a", camera("111"), "T1");
+  const auto first = t.remove("a", RemovalReason::lease_expired, "T2");
+  t.upsert("a", camera("111"), "T3");
+  const auto second = t.remove("a", RemovalReason::lease_expired, "T4");
+  ASSERT_TRUE(first && second);
+  // A verdict on a removal the camera came back from is kept on that record alone.
+  EXPECT_TRUE(t.judge_host("a", first->generation, HostVerdict::unreachable));
+  EXPECT_FALSE(t.find_gone("a")->host);
+  EXPECT_TRUE(t.judge_host("a", second->generation, HostVerdict::present));
+  EXPECT_EQ(t.find_gone("a")->host, HostVerdict::present);
+  const auto h = t.history("a");
+  ASSERT_TRUE(h);
+  ASSERT_EQ(h->changes.size(), 4u);
+  EXPECT_EQ(h->changes[1].host, HostVerdict::unreachable);
+  EXPECT_FALSE(h->changes[2].host);  // the addition
+  EXPECT_EQ(h->changes[3].host, HostVerdict::present);
+  EXPECT_FALSE(t.judge_host("never-seen", 1, HostVerdict::present));
+  const auto counts = t.counts();
+  EXPECT_EQ(counts.hosts[static_cast<std::size_t>(HostVerdict::present)], 2u);
+  EXPECT_EQ(counts.hosts[static_cast<std::size_t>(HostVerdict::unreachable)], 1u);
+}

@@ -41,6 +41,8 @@ inline constexpr const char* warnings = "warnings";
 inline constexpr const char* merged_into = "merged-into";
 // A DDS camera's clients, in short (written only while it has one; rsd_model/clients.hpp).
 inline constexpr const char* in_use = "in-use";
+// A DDS camera whose server's lease ran out, kept listed for the removal grace.
+inline constexpr const char* unresponsive = "unresponsive";
 }  // namespace key
 
 // remote_usb ("remote-usb"): a camera plugged into another host's USB, which that
@@ -111,6 +113,7 @@ struct Device {
   std::vector<std::string> warnings;  // plain-language; empty: not written
   std::optional<std::string> merged_into;  // on a `removed` entry that joined another
   std::optional<InUse> in_use;             // DDS, while it has a client
+  std::optional<bool> unresponsive;        // DDS, during the removal grace (true only)
   // Every other key, verbatim (the camera's own device-info keys; and a known key whose
   // value is not of the type above). Always an object.
   nlohmann::json extra = nlohmann::json::object();

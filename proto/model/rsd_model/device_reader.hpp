@@ -243,6 +243,7 @@ Device read_device(const V& doc) {
     else if (k == key::recovery) ok = read(v, d.recovery);
     else if (k == key::first_seen) ok = read(v, d.first_seen);
     else if (k == key::last_seen) ok = read(v, d.last_seen);
+    else if (k == key::unresponsive) ok = read(v, d.unresponsive);
     else if (k == key::server) ok = read(v, d.server);
     else if (k == key::usb) ok = read(v, d.usb);
     else if (k == key::host) ok = read(v, d.host);

@@ -39,6 +39,18 @@ constexpr std::optional<RemovalReason> parse_removal_reason(std::string_view nam
   return std::nullopt;
 }
 
+// A camera lost by its lease (no 'stopping'): is its host still on the network?
+// host-present: its kernel still answers (ARP, ICMP), so DDS alone is silent, the
+// camera's server hung (a PoE camera: power-cycle it). host-unreachable: nothing
+// answers, so check the cable, the switch or the power.
+enum class HostVerdict { present, unreachable };
+
+inline constexpr std::array<HostVerdict, 2> kHostVerdicts{HostVerdict::present, HostVerdict::unreachable};
+
+constexpr std::string_view to_string(HostVerdict verdict) {
+  return verdict == HostVerdict::present ? "host-present" : "host-unreachable";
+}
+
 // What the event stream adds to the document of a `removed` event (reason) and of
 // an `added` one (arrival: new or back; away-since: when a camera back was removed).
 // The table keeps sources from setting them, so an event never carries one twice.
@@ -61,6 +73,7 @@ inline constexpr const char* device = "device";
 inline constexpr const char* next = "next";
 inline constexpr const char* flap = "flap";
 inline constexpr const char* flaps = "flaps";
+inline constexpr const char* host_check = "host-check";  // a HostVerdict, on a lease-expired removal once judged
 }  // namespace key
 inline constexpr const char* kArrivalNew = "new";
 inline constexpr const char* kArrivalBack = "back";

@@ -1,0 +1,39 @@
+// DomainBook's removal grace (BookOptions::removal_grace): a device whose server's
+// lease ran out stays listed, marked unresponsive, until its grace ends, and goes
+// with `lease-expired` then unless it was announced again meanwhile.
+#include "dds/domain_book.hpp"
+
+#include "log/log.hpp"
+
+namespace rsd::dds {
+
+void DomainBook::mark_unresponsive(const std::string& id, Clock::time_point now) {
+  if (!unresponsive_.emplace(id, now + options_.removal_grace).second) return;
+  Announced& device = devices_.at(id);
+  device.doc.unresponsive = true;
+  log::info(prefix() + "device " + id + " unresponsive (its server's lease expired): removed in " +
+            std::to_string(std::chrono::duration_cast<std::chrono::seconds>(options_.removal_grace).count()) +
+            " s unless heard again");
+  table_.upsert(id, model::to_json(device.doc));
+}
+
+void DomainBook::end_graces(Clock::time_point now) {
+  for (auto it = unresponsive_.begin(); it != unresponsive_.end();) {
+    if (now < it->second) {
+      ++it;
+      continue;
+    }
+    const std::string id = it->first;
+    it = unresponsive_.erase(it);
+    const auto dev = devices_.find(id);
+    if (dev == devices_.end()) continue;
+    std::vector<std::string> writers;
+    for (const auto& a : dev->second.announcers) writers.push_back(a.first);
+    if (writers.empty()) remove_device(id, model::RemovalReason::lease_expired, "not heard again within the removal grace");
+    for (const auto& w : writers)
+      drop_announcer(id, w, model::RemovalReason::lease_expired,
+                     "its participant " + participant_of(w) + " is gone (its lease expired) and was not heard again within the removal grace");
+  }
+}
+
+}  // namespace rsd::dds
