@@ -186,13 +186,13 @@ std::vector<std::string> device_nodes(const std::string& device_dir, std::uint8_
   constexpr std::size_t kMaxEntries = 4096;
   constexpr std::size_t kMaxNodes = 32;  // a D455 has about ten
   std::vector<std::string> out;
-  if (device_dir.empty()) return out;
+  std::error_code ec;
+  if (device_dir.empty() || !fs::is_directory(device_dir, ec)) return out;  // unplugged meanwhile
   char usbfs[32];
   std::snprintf(usbfs, sizeof usbfs, "/dev/bus/usb/%03u/%03u", static_cast<unsigned>(bus),
                 static_cast<unsigned>(address));
   out.push_back(devname_of(device_dir).value_or(usbfs));
   std::vector<std::string> children;
-  std::error_code ec;
   fs::recursive_directory_iterator it(device_dir, fs::directory_options::skip_permission_denied, ec);
   std::size_t entries = 0;
   for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {

@@ -72,9 +72,9 @@ SysfsInfo read_sysfs(const std::string& sysfs_root, std::uint8_t bus,
 // The device files of the USB device whose sysfs directory is `device_dir`
 // (SysfsInfo::path): its usbfs node (/dev/bus/usb/BBB/DDD) first, then the
 // video, media and hidraw nodes its interfaces' drivers made (sorted), each named
-// by the DEVNAME of its uevent. A device below it (a hub's) is not searched. The
-// walk is bounded (depth, entries, nodes): sysfs is the kernel's, but a driver
-// binding late or a strange tree must not hold the USB thread.
+// by the DEVNAME of its uevent (none when the directory is gone). A device below
+// it (a hub's) is not searched. The walk is bounded (depth, entries, nodes):
+// sysfs is the kernel's, but a strange tree must not hold the USB thread.
 std::vector<std::string> device_nodes(const std::string& device_dir, std::uint8_t bus, std::uint8_t address);
 
 }  // namespace rsd::usb

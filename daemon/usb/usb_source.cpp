@@ -151,7 +151,7 @@ struct UsbSource::Impl {
       if (!d.usb || !d.usb->sysfs_path) continue;
       auto nodes = device_nodes(*d.usb->sysfs_path, static_cast<std::uint8_t>(d.usb->bus),
                                 static_cast<std::uint8_t>(d.usb->address));
-      if (nodes == d.usb->device_nodes) continue;
+      if (nodes.empty() || nodes == d.usb->device_nodes) continue;  // empty: leaving
       d.usb->device_nodes = std::move(nodes);
       doc = model::to_json(d);
       table.upsert(id, doc);
@@ -178,7 +178,6 @@ struct UsbSource::Impl {
       if (!seen) arrived(list[i]);
     }
     libusb_free_device_list(list, 1);
-    refresh_nodes();
     std::vector<Key> gone;
     {
       std::lock_guard lock(mutex);
@@ -186,6 +185,7 @@ struct UsbSource::Impl {
         if (!present.count(k)) gone.push_back(k);
     }
     for (const auto& k : gone) left(k);
+    refresh_nodes();
   }
 
   void unavailable(const std::string& why) {

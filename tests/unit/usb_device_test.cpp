@@ -201,6 +201,7 @@ TEST_F(Sysfs, DeviceNodesOfItsInterfacesAndNotOfADeviceBelowIt) {
   fs::remove_all(dev / "2-1.4:1.5");
   EXPECT_EQ(device_nodes(dev.string(), 2, 7), std::vector<std::string>{"/dev/bus/usb/002/007"});
   EXPECT_TRUE(device_nodes("", 2, 7).empty());
+  EXPECT_TRUE(device_nodes((root / "devices/gone").string(), 2, 7).empty());  // unplugged meanwhile
 }
 
 TEST(UsbDevice, DeviceNodesAreInTheDocumentAndRoundTrip) {
