@@ -119,22 +119,26 @@ std::uint64_t EndpointBook::refused(EndpointRefusal r) const { return refused_[s
 std::map<std::string, EndpointBook::Use> EndpointBook::users_of(const std::string& root,
                                                                 const std::set<std::string>& except) const {
   std::map<std::string, Use> out;
-  const auto take = [&](const Topics::value_type& topic, std::string_view stream) {
+  // A client writes the camera's control and reads the rest; a server (a second
+  // one starting before its device-info is heard, too) does the opposite, so only
+  // the client's direction counts.
+  const auto take = [&](const Topics::value_type& topic, bool client_writes, std::string_view stream) {
     for (const auto& [participant, use] : topic.second) {
-      if (except.count(participant)) continue;
+      if (except.count(participant) || (client_writes ? use.writers : use.readers) == 0) continue;
       Use& u = out[participant];
       if (u.since.empty() || use.since < u.since) u.since = use.since;
-      if (!stream.empty() && use.readers > 0) {
+      if (!stream.empty()) {
         u.streams.emplace(stream);
         u.readers[std::string(stream)] += use.readers;
       }
     }
   };
-  for (const auto suffix : {realdds_topics::kNotification, realdds_topics::kControl, realdds_topics::kMetadata})
-    if (auto t = topics_.find(root + std::string(suffix)); t != topics_.end()) take(*t, {});
+  if (auto t = topics_.find(root + std::string(realdds_topics::kControl)); t != topics_.end()) take(*t, true, {});
+  for (const auto suffix : {realdds_topics::kNotification, realdds_topics::kMetadata})
+    if (auto t = topics_.find(root + std::string(suffix)); t != topics_.end()) take(*t, false, {});
   const std::string prefix = std::string(realdds_topics::kStreamPrefix) + root + "_";
   for (auto t = topics_.lower_bound(prefix); t != topics_.end() && t->first.starts_with(prefix); ++t)
-    if (t->first.size() > prefix.size()) take(*t, std::string_view(t->first).substr(prefix.size()));
+    if (t->first.size() > prefix.size()) take(*t, false, std::string_view(t->first).substr(prefix.size()));
   return out;
 }
 

@@ -69,8 +69,8 @@ class EndpointBook {
     std::set<std::string> streams;    // read (a reader on the stream's topic)
     std::map<std::string, std::size_t> readers;  // per stream, its readers
   };
-  // Every participant with an endpoint on the topics of the camera `root`, but those
-  // in `except` (its servers).
+  // Every participant with a client's endpoint on the topics of the camera `root`
+  // (a control writer, a reader of the others), but those in `except` (its servers).
   std::map<std::string, Use> users_of(const std::string& root, const std::set<std::string>& except) const;
 
  private:

@@ -60,6 +60,7 @@ std::optional<model::Device> camera_fields(const json& doc) {
       plain_text(in.usb->pid, 8)) {
     out.usb = *in.usb;
     out.usb->sysfs_path.reset();  // a path on another host's file system says nothing here
+    out.usb->device_nodes.clear();  // nor do its device files
     if (out.usb->usb_version && !plain_text(*out.usb->usb_version, 16)) out.usb->usb_version.reset();
   }
   for (const auto& w : in.warnings) {

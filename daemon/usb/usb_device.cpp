@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -42,6 +43,25 @@ std::optional<long> parse_long(const std::string& text) {
   auto [p, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
   if (ec != std::errc() || p != t.data() + t.size()) return std::nullopt;
   return v;
+}
+
+// "/dev/..." from a uevent's DEVNAME (the kernel writes it relative to /dev), or
+// nothing without a plain one.
+std::optional<std::string> devname_of(const std::filesystem::path& dir) {
+  const auto uevent = read_attr(dir, "uevent");
+  if (!uevent) return std::nullopt;
+  const std::string_view text = *uevent;
+  for (std::size_t at = 0; at < text.size();) {
+    std::size_t end = text.find('\n', at);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string_view line = text.substr(at, end - at);
+    at = end + 1;
+    if (!line.starts_with("DEVNAME=")) continue;
+    std::string name = trim(line.substr(8));
+    if (name.empty() || name.find("..") != std::string::npos) return std::nullopt;
+    return name.front() == '/' ? name : "/dev/" + name;
+  }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -116,6 +136,7 @@ model::Device to_device(const UsbSighting& s, const ProductInfo& product) {
     usb.usb_version = ver;
   }
   if (!s.sysfs_path.empty()) usb.sysfs_path = s.sysfs_path;
+  usb.device_nodes = s.device_nodes;
 
   model::Device d;
   d.source = model::Source::usb;
@@ -157,6 +178,43 @@ SysfsInfo read_sysfs(const std::string& sysfs_root, std::uint8_t bus,
   if (!ec)
     info.path = (target.is_absolute() ? target : (link.parent_path() / target)).lexically_normal().string();
   return info;
+}
+
+std::vector<std::string> device_nodes(const std::string& device_dir, std::uint8_t bus, std::uint8_t address) {
+  namespace fs = std::filesystem;
+  constexpr int kMaxDepth = 5;          // 2-1/2-1:1.5/0003:8086:0B5C.0001/hidraw/hidraw0
+  constexpr std::size_t kMaxEntries = 4096;
+  constexpr std::size_t kMaxNodes = 32;  // a D455 has about ten
+  std::vector<std::string> out;
+  std::error_code ec;
+  if (device_dir.empty() || !fs::is_directory(device_dir, ec)) return out;  // unplugged meanwhile
+  char usbfs[32];
+  std::snprintf(usbfs, sizeof usbfs, "/dev/bus/usb/%03u/%03u", static_cast<unsigned>(bus),
+                static_cast<unsigned>(address));
+  out.push_back(devname_of(device_dir).value_or(usbfs));
+  std::vector<std::string> children;
+  fs::recursive_directory_iterator it(device_dir, fs::directory_options::skip_permission_denied, ec);
+  std::size_t entries = 0;
+  for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    if (++entries > kMaxEntries || children.size() >= kMaxNodes) break;
+    std::error_code type_ec;
+    if (it->is_symlink(type_ec) || !it->is_directory(type_ec)) continue;  // links lead out of the device
+    const fs::path& dir = it->path();
+    if (fs::exists(dir / "devnum", type_ec)) {  // another USB device, below a hub
+      it.disable_recursion_pending();
+      continue;
+    }
+    if (it.depth() >= kMaxDepth) it.disable_recursion_pending();
+    const std::string name = dir.filename().string();
+    const bool wanted = (name.starts_with("video") && name != "video4linux") || name.starts_with("media") ||
+                        name.starts_with("hidraw");
+    if (!wanted) continue;
+    if (auto node = devname_of(dir)) children.push_back(std::move(*node));
+  }
+  std::sort(children.begin(), children.end());
+  children.erase(std::unique(children.begin(), children.end()), children.end());
+  out.insert(out.end(), children.begin(), children.end());
+  return out;
 }
 
 }  // namespace rsd::usb

@@ -27,6 +27,7 @@ struct UsbSighting {
   double speed_mbps = 0;          // link speed; 0: unknown
   std::optional<std::string> serial;  // the USB iSerial (sysfs "serial"), cleaned
   std::string sysfs_path;         // e.g. /sys/devices/pci0000:00/0000:00:14.0/usb2/2-1
+  std::vector<std::string> device_nodes;  // device_nodes() below
 };
 
 // "2-1.4": the kernel's name for the device (and its place in the port tree).
@@ -67,5 +68,13 @@ struct SysfsInfo {
 };
 SysfsInfo read_sysfs(const std::string& sysfs_root, std::uint8_t bus,
                      const std::vector<std::uint8_t>& ports, std::uint8_t address);
+
+// The device files of the USB device whose sysfs directory is `device_dir`
+// (SysfsInfo::path): its usbfs node (/dev/bus/usb/BBB/DDD) first, then the
+// video, media and hidraw nodes its interfaces' drivers made (sorted), each named
+// by the DEVNAME of its uevent (none when the directory is gone). A device below
+// it (a hub's) is not searched. The walk is bounded (depth, entries, nodes):
+// sysfs is the kernel's, but a strange tree must not hold the USB thread.
+std::vector<std::string> device_nodes(const std::string& device_dir, std::uint8_t bus, std::uint8_t address);
 
 }  // namespace rsd::usb

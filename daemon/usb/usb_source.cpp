@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdlib>
 #include <map>
@@ -48,6 +49,7 @@ struct UsbSource::Impl {
   std::map<std::string, nlohmann::json> docs;  // sighting id -> its document (what share-usb announces)
   UsbStatus status;
   std::function<void()> changed;  // cameras() changed
+  std::chrono::steady_clock::time_point nodes_refreshed{};
 
   Impl(SharedTable& t, UsbOptions o, std::function<void()> c)
       : table(t), options(std::move(o)), changed(std::move(c)) {}
@@ -94,6 +96,7 @@ struct UsbSource::Impl {
       s.serial = sys.serial;
       s.speed_mbps = sys.speed_mbps;
       s.sysfs_path = sys.path;
+      s.device_nodes = device_nodes(sys.path, s.bus, s.address);
     }
     if (s.speed_mbps <= 0) {
       switch (libusb_get_device_speed(dev)) {
@@ -146,6 +149,27 @@ struct UsbSource::Impl {
     status.devices = known.size();
   }
 
+  // A camera's video, media and hidraw nodes come when its interfaces' drivers
+  // bind, after libusb tells it arrived (and go when they unbind): looked for
+  // again about every second, and changed in the table only when they differ.
+  void refresh_nodes() {
+    const auto now = std::chrono::steady_clock::now();
+    std::lock_guard lock(mutex);
+    if (now - nodes_refreshed < std::chrono::seconds(1)) return;
+    nodes_refreshed = now;
+    for (auto& [id, doc] : docs) {
+      model::Device d = model::device_from_json(doc);
+      if (!d.usb || !d.usb->sysfs_path) continue;
+      auto nodes = device_nodes(*d.usb->sysfs_path, static_cast<std::uint8_t>(d.usb->bus),
+                                static_cast<std::uint8_t>(d.usb->address));
+      if (nodes.empty() || nodes == d.usb->device_nodes) continue;  // empty: leaving
+      d.usb->device_nodes = std::move(nodes);
+      doc = model::to_json(d);
+      table.upsert(id, doc);
+      tell();
+    }
+  }
+
   // One enumeration, compared with what we know: polling mode.
   void rescan() {
     libusb_device** list = nullptr;
@@ -173,6 +197,7 @@ struct UsbSource::Impl {
         if (!present.count(k)) gone.push_back(k);
     }
     for (const auto& k : gone) left(k);
+    refresh_nodes();
   }
 
   void unavailable(const std::string& why) {
@@ -228,6 +253,7 @@ bool UsbSource::start() {
       while (!d.stopping) {
         timeval tv{1, 0};
         libusb_handle_events_timeout_completed(d.ctx, &tv, nullptr);
+        d.refresh_nodes();
       }
     });
     log::info("usb: watching for RealSense cameras (libusb hotplug)");

@@ -82,6 +82,7 @@ json usb_json(const Usb& u) {
   }
   if (u.usb_version) out["usb-version"] = *u.usb_version;
   if (u.sysfs_path) out["sysfs-path"] = *u.sysfs_path;
+  if (!u.device_nodes.empty()) out[key::device_nodes] = u.device_nodes;
   return out;
 }
 

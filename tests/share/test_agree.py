@@ -28,7 +28,7 @@ def cameras(daemon, host):
         if d["source"] == "usb":
             key = ("usb", f"host{host}", d["id"])
             fields = {k: d[k] for k in CAMERA_FIELDS if k in d}
-            fields["usb"] = {k: v for k, v in d["usb"].items() if k != "sysfs-path"}
+            fields["usb"] = {k: v for k, v in d["usb"].items() if k not in ("sysfs-path", "device-nodes")}
         elif d["source"] == "remote-usb":
             camera, _, _ = d["id"].rpartition(".")
             key = ("usb", d["host"]["name"], camera)

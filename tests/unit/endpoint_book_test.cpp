@@ -77,8 +77,46 @@ TEST(ParticipantBookClients, ADeviceOnlyIsAClientWithNoStreams) {
   EXPECT_TRUE(c.clients[0].streams.empty());
   EXPECT_TRUE(c.streams.empty());
   EXPECT_EQ(rsd::model::summary_of(c), (rsd::model::InUse{1, {}}));
-  // Without naming its server, the server is a user of its own topics: the caller's job.
-  EXPECT_EQ(book.clients(kRoot, {}).clients.size(), 2u);
+  // Its server, even unnamed, is no client of its own topics: it reads control and writes the rest.
+  EXPECT_EQ(book.clients(kRoot, {}).clients.size(), 1u);
+}
+
+TEST(ParticipantBookClients, ASecondServerOfTheSameRootIsNoClient) {
+  ParticipantBook book;
+  server(book);
+  device_of(book, kApp, kRoot, "T1");
+  // A new server process for the same camera makes its endpoints before its
+  // device-info is heard, so only the first server is named as one.
+  server(book, kRoot, kOther);
+  const auto c = book.clients(kRoot, {kServer});
+  ASSERT_EQ(c.clients.size(), 1u);
+  EXPECT_EQ(c.clients[0].guid, kApp);
+  EXPECT_TRUE(c.streams.empty());  // its stream writers are nobody streaming
+  EXPECT_EQ(rsd::model::summary_of(c), (rsd::model::InUse{1, {}}));
+  // The app opens Depth: one reader, the servers' two writers do not count.
+  book.endpoint_alive(kApp, ep(kApp, 3), "rt/" + kRoot + "_Depth", true, "T2");
+  EXPECT_EQ(book.clients(kRoot, {kServer}).streams, (std::map<std::string, std::size_t>{{"Depth", 1}}));
+  // The app gone, neither server is left as a client.
+  book.gone(kApp, "T3");
+  EXPECT_TRUE(book.clients(kRoot, {kServer}).clients.empty());
+  EXPECT_TRUE(book.clients(kRoot, {}).clients.empty());
+}
+
+TEST(ParticipantBookClients, OnlyAClientsDirectionOnEachTopicCounts) {
+  ParticipantBook book;
+  // Each lone endpoint a client has makes it one; the opposite ones do not.
+  book.endpoint_alive(kApp, ep(kApp, 1), kRoot + "/control", false, "T1");
+  book.endpoint_alive(kOther, ep(kOther, 1), kRoot + "/control", true, "T1");
+  EXPECT_EQ(book.clients(kRoot, {}).clients.size(), 1u);
+  book.endpoint_gone(kApp, ep(kApp, 1));
+  book.endpoint_alive(kApp, ep(kApp, 2), kRoot + "/metadata", true, "T1");
+  book.endpoint_alive(kOther, ep(kOther, 2), kRoot + "/metadata", false, "T1");
+  book.endpoint_alive(kOther, ep(kOther, 3), kRoot + "/notification", false, "T1");
+  book.endpoint_alive(kOther, ep(kOther, 4), "rt/" + kRoot + "_Color", false, "T1");
+  const auto c = book.clients(kRoot, {});
+  ASSERT_EQ(c.clients.size(), 1u);
+  EXPECT_EQ(c.clients[0].guid, kApp);
+  EXPECT_TRUE(c.streams.empty());
 }
 
 TEST(ParticipantBookClients, AStreamReaderStreamsAndGoesWithItsParticipant) {

@@ -2,6 +2,8 @@
 #include "usb/realsense_ids.hpp"
 #include "usb/usb_device.hpp"
 
+#include "rsd_model/device.hpp"
+
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -96,6 +98,7 @@ TEST(UsbDevice, DocumentOfAUsb3CameraOnUsb3) {
   EXPECT_EQ(doc["usb"]["pid"], "0B5C");
   EXPECT_EQ(doc["usb"]["usb-version"], "3.20");
   EXPECT_EQ(doc["usb"]["sysfs-path"], s.sysfs_path);
+  EXPECT_FALSE(doc["usb"].contains("device-nodes"));  // none found: not written
   EXPECT_FALSE(doc.contains("warnings"));
   EXPECT_FALSE(doc.contains("id"));  // the table sets it
 }
@@ -170,4 +173,44 @@ TEST_F(Sysfs, LowSpeedAndMissingOrBadSerial) {
   info = read_sysfs(root.string(), 2, {1, 4}, 7);
   EXPECT_EQ(info.serial, std::nullopt);
   EXPECT_EQ(info.speed_mbps, 0);
+}
+
+// A camera's tree as the kernel lays it out once uvcvideo and usbhid have bound.
+TEST_F(Sysfs, DeviceNodesOfItsInterfacesAndNotOfADeviceBelowIt) {
+  write("uevent", "MAJOR=189\nMINOR=134\nDEVNAME=bus/usb/002/007\nDEVTYPE=usb_device\n");
+  const auto node = [&](const std::string& dir, const std::string& devname) {
+    fs::create_directories(dev / dir);
+    std::ofstream(dev / dir / "uevent") << "MAJOR=81\nDEVNAME=" << devname << "\n";
+  };
+  node("2-1.4:1.0/video4linux/video2", "video2");
+  node("2-1.4:1.0/video4linux/video0", "video0");
+  node("2-1.4:1.0/media1", "media1");
+  node("2-1.4:1.5/0003:8086:0B5C.0004/hidraw/hidraw3", "hidraw3");
+  node("2-1.4:1.5/0003:8086:0B5C.0004/input/input9/event9", "input/event9");  // not the camera's to hold
+  fs::create_directories(dev / "2-1.4:1.0/video4linux/video5");  // no uevent: no node
+  // A device on a port below it (were it a hub) is its own camera.
+  fs::create_directories(dev / "2-1.4.1/2-1.4.1:1.0/video4linux/video7");
+  std::ofstream(dev / "2-1.4.1/devnum") << "9\n";
+  std::ofstream(dev / "2-1.4.1/2-1.4.1:1.0/video4linux/video7/uevent") << "DEVNAME=video7\n";
+  EXPECT_EQ(device_nodes(dev.string(), 2, 7),
+            (std::vector<std::string>{"/dev/bus/usb/002/007", "/dev/hidraw3", "/dev/media1", "/dev/video0",
+                                      "/dev/video2"}));
+  // Without a uevent of its own, the usbfs node is named from bus and address.
+  fs::remove(dev / "uevent");
+  fs::remove_all(dev / "2-1.4:1.0");
+  fs::remove_all(dev / "2-1.4:1.5");
+  EXPECT_EQ(device_nodes(dev.string(), 2, 7), std::vector<std::string>{"/dev/bus/usb/002/007"});
+  EXPECT_TRUE(device_nodes("", 2, 7).empty());
+  EXPECT_TRUE(device_nodes((root / "devices/gone").string(), 2, 7).empty());  // unplugged meanwhile
+}
+
+TEST(UsbDevice, DeviceNodesAreInTheDocumentAndRoundTrip) {
+  auto s = d455_on(5000);
+  s.device_nodes = {"/dev/bus/usb/002/007", "/dev/video0"};
+  const auto doc = to_json(s, *find_product(s.vid, s.pid));
+  EXPECT_EQ(doc["usb"]["device-nodes"], nlohmann::json::array({"/dev/bus/usb/002/007", "/dev/video0"}));
+  const auto d = rsd::model::device_from_json(doc);
+  ASSERT_TRUE(d.usb);
+  EXPECT_EQ(d.usb->device_nodes, s.device_nodes);
+  EXPECT_EQ(rsd::model::to_json(d), doc);
 }

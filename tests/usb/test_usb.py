@@ -148,7 +148,8 @@ def test_d455_on_usb3_present_at_start(bed, usb_daemon):
     assert dev["recovery"] is False
     assert dev["usb"] == {"bus": 2, "address": 2, "port-path": "2-1", "speed": "super", "speed-mbps": 5000,
                           "vid": "8086", "pid": "0B5C", "usb-version": "3.20",
-                          "sysfs-path": "/sys/devices/pci0000:00/0000:00:14.0/usb2/2-1"}
+                          "sysfs-path": "/sys/devices/pci0000:00/0000:00:14.0/usb2/2-1",
+                          "device-nodes": ["/dev/bus/usb/002/002"]}
     assert "warnings" not in dev
     assert dev["first-seen"] and dev["last-seen"]
     # The same over HTTP, by id, and through the source filter.
@@ -444,3 +445,14 @@ def test_sigterm_stops_promptly_with_usb_watching(bed, usb_daemon):
     d.proc.wait(5)
     assert time.monotonic() - t0 < 1.0
     assert d.proc.returncode == 0, d.log()[-2000:]
+
+
+def test_device_nodes_of_a_camera_and_of_its_bound_interfaces(bed, usb_daemon):
+    # What `rs-discover clients` looks for among processes' open files.
+    bed.plug("root-hubs")
+    bed.plug("d455-uvc")
+    d, _ = usb_daemon()
+    dev = wait_for(lambda: usb_devices(d).get(D455_ID), 5, what="the D455 listed")
+    nodes = wait_for(lambda: (lambda n: n if "/dev/video0" in n else None)(
+        usb_devices(d)[D455_ID]["usb"].get("device-nodes", [])), 5, what="its video node")
+    assert nodes == ["/dev/bus/usb/002/002", "/dev/media0", "/dev/video0"], dev

@@ -43,6 +43,9 @@ inline constexpr const char* merged_into = "merged-into";
 inline constexpr const char* in_use = "in-use";
 // A DDS camera whose server's lease ran out, kept listed for the removal grace.
 inline constexpr const char* unresponsive = "unresponsive";
+// Inside "usb": the camera's device files on this host (what `rs-discover clients`
+// looks for among the processes' open files).
+inline constexpr const char* device_nodes = "device-nodes";
 }  // namespace key
 
 // remote_usb ("remote-usb"): a camera plugged into another host's USB, which that
@@ -75,6 +78,7 @@ struct Usb {
   std::optional<double> speed_mbps;      // written as an integer when it is whole
   std::optional<std::string> usb_version;  // "3.20"
   std::optional<std::string> sysfs_path;
+  std::vector<std::string> device_nodes;  // /dev/bus/usb/BBB/DDD first; empty: not written
 };
 
 // The host whose daemon shares a remote-usb camera: the name it gives, the

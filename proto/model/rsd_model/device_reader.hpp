@@ -166,6 +166,7 @@ bool read(const V& v, Usb& out) {
         if (k == "speed-mbps") return read(value, u.speed_mbps);
         if (k == "usb-version") return read(value, u.usb_version);
         if (k == "sysfs-path") return read(value, u.sysfs_path);
+        if (k == key::device_nodes) return read(value, u.device_nodes);
         return false;
       }))
     return false;

@@ -140,6 +140,7 @@ class Usb(_Document):
     usb_version: Optional[str]
     sysfs_path: Optional[str]
     raw: Mapping[str, Any] = field(repr=False)
+    device_nodes: Tuple[str, ...] = ()  # this host's device files of the camera (/dev/bus/usb/..., /dev/video0 ...)
 
     @staticmethod
     def from_json(doc: Any) -> "Usb":
@@ -147,7 +148,7 @@ class Usb(_Document):
         return Usb(bus=r.get("bus", int, 0), address=r.get("address", int, 0), port_path=r.get("port-path", str, ""),
                    speed=r.get("speed", str, "unknown"), speed_mbps=r.opt("speed-mbps", float),
                    vid=r.get("vid", str, ""), pid=r.get("pid", str, ""), usb_version=r.opt("usb-version", str),
-                   sysfs_path=r.opt("sysfs-path", str), raw=r.doc)
+                   sysfs_path=r.opt("sysfs-path", str), raw=r.doc, device_nodes=r.strings("device-nodes"))
 
     def __hash__(self) -> int:
         return hash((self.bus, self.address, self.port_path))
