@@ -22,7 +22,7 @@ ROOT=$PWD
 # What building and running need: `./dev.sh run` installs only these.
 RUN_PACKAGES=(
   build-essential cmake ninja-build pkg-config
-  cyclonedds-dev cyclonedds-tools libusb-1.0-0-dev nlohmann-json3-dev libcpp-httplib-dev libsystemd-dev
+  cyclonedds-dev cyclonedds-tools libusb-1.0-0-dev nlohmann-json3-dev libcpp-httplib-dev rapidjson-dev libsystemd-dev
 )
 # What the test suite needs on top: `./dev.sh test` installs these too.
 TEST_PACKAGES=(

@@ -1,4 +1,5 @@
 #include "rsd_model/device.hpp"
+#include "rsd_model/device_reader.hpp"
 
 #include <cmath>
 #include <cstdint>
@@ -116,5 +117,7 @@ json to_json(const Device& d) {
   if (d.in_use) out[key::in_use] = to_json(*d.in_use);
   return out;
 }
+
+Device device_from_json(const json& doc) { return read_device(JsonView(doc)); }
 
 }  // namespace rsd::model

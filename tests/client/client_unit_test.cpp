@@ -271,9 +271,9 @@ rsd::usb::UsbSighting d435_sighting(std::uint16_t bcd_usb, double speed_mbps) {
   return s;
 }
 
-// Client::list reads the list in its own way (device_list.cpp: a bound on nesting, each
-// device's text as sent), the watch device by device: the same document must give the
-// same devices either way, and the same documents must be refused.
+// Client::list reads with RapidJSON (device_list.cpp), everything else with nlohmann:
+// the same document must give the same devices either way, and the same documents must
+// be refused.
 void expect_same_device(const Device& a, const Device& b) {
   EXPECT_EQ(a.id, b.id);
   EXPECT_EQ(a.source, b.source);
@@ -390,8 +390,9 @@ TEST(DeviceList, RefusesWhatNlohmannRefuses) {
   }
   std::string no_id = R"({"devices":[{"name":"x"}]})";
   EXPECT_THROW(detail::read_device_list(no_id, "/v1/devices", out), Error);
-  // Exponents of more than three digits (which the daemon never writes) read as 0, and
-  // a number beyond a double is refused.
+  // Exponents of more than three digits (which the daemon never writes) are read by
+  // nlohmann, never by bookworm's RapidJSON (CVE-2024-38517): as nlohmann reads them
+  // (0), and refused where nlohmann refuses them.
   std::string tiny = R"({"devices":[{"id":"x","n":[0.00001e-2147483647,1.5e-2147483648,1e-99999]}]})";
   ASSERT_EQ(detail::read_device_list(tiny, "/v1/devices", out), std::nullopt);
   EXPECT_EQ(json::parse(out.devices.at(0).field("n")), json::parse("[0.0,0.0,0.0]"));

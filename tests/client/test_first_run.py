@@ -69,6 +69,7 @@ def test_what_cmake_finds_comes_from_the_run_packages(tmp_path):
     cache = dict(re.findall(r"^([A-Za-z_]+):[A-Z]+=(.*)$", open(tmp_path / "CMakeCache.txt").read(), re.M))
     files = [os.path.join(cache["CycloneDDS_DIR"], "CycloneDDSConfig.cmake"),
              os.path.join(cache["nlohmann_json_DIR"], "nlohmann_jsonConfig.cmake"),
+             os.path.join(cache["RAPIDJSON_INCLUDE_DIR"], "rapidjson", "rapidjson.h"),
              shutil.which("idlc"), shutil.which("ninja"), shutil.which("c++"), cache["PKG_CONFIG_EXECUTABLE"]]
     files += [v for k, v in cache.items() if k.startswith("OPENSSL_") and k.endswith("_LIBRARY")]
     for module in ("cpp-httplib", "libsystemd", "libusb-1.0"):
