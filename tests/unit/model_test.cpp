@@ -80,7 +80,7 @@ TEST(Model, StateAndLookup) {
 
 TEST(Model, UsbSpeedIsAnIntegerWhenWhole) {
   Device d;
-  d.usb = Usb{1, 2, "1-1", "high", "8086", "0B07", 480.0, std::nullopt, std::nullopt};
+  d.usb = Usb{1, 2, "1-1", "high", "8086", "0B07", 480.0, std::nullopt, std::nullopt, {}};
   EXPECT_EQ(to_json(d)["usb"]["speed-mbps"].dump(), "480");
   d.usb->speed_mbps = 1.5;
   EXPECT_EQ(to_json(d)["usb"]["speed-mbps"].dump(), "1.5");
