@@ -8,6 +8,7 @@ import os
 import re
 import shutil
 import subprocess
+from pathlib import Path
 
 import pytest
 from client_util import SOURCE
@@ -43,9 +44,18 @@ def test_run_builds_the_daemon_and_rs_discover():
 
 def test_install_works_after_the_run_build(tmp_path):
     # The build step of `./dev.sh run`, alone, in a fresh tree; then what the README's
-    # install line does. dev.sh compiles through ccache where it is installed, so the
-    # plain tree's objects make this rebuild cheap.
-    tree, prefix = tmp_path / "build", tmp_path / "prefix"
+    # install line does. dev.sh compiles through ccache where it is installed; ccache
+    # makes paths relative to the build directory, so a tree at the top of the source
+    # (where `build` is) hits the plain tree's objects, one in /tmp would not.
+    tree, prefix = Path(SOURCE) / f"build-first-run-{os.getpid()}", tmp_path / "prefix"
+    shutil.rmtree(tree, ignore_errors=True)
+    try:
+        _build_and_install(tree, prefix)
+    finally:
+        shutil.rmtree(tree, ignore_errors=True)
+
+
+def _build_and_install(tree, prefix):
     r = subprocess.run([DEV, "build", str(tree)], capture_output=True, text=True, timeout=1500)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     assert os.access(tree / "daemon" / "rs-discoveryd", os.X_OK) and os.access(tree / "client" / "rs-discover", os.X_OK)
