@@ -24,14 +24,19 @@ BookOptions with_grace(std::chrono::milliseconds grace) {
   o.removal_grace = grace;
   return o;
 }
+
+// Camera 100 announced by writer 1 at t0, its participant's lease lost at t0 + 1 s.
+void announce_then_lose_by_lease(DomainBook& book) {
+  book.writer_matched(1, writer(1, 1), t0);
+  book.sample(1, info("100"));
+  book.participant_gone(writer(1, 1).participant_guid, t0 + 1s);
+}
 }  // namespace
 
 TEST(RemovalGrace, HeardAgainWithinTheGraceIsKeptAndUnmarked) {
   rsd::SharedTable table;
   DomainBook book(table, with_grace(5s));
-  book.writer_matched(1, writer(1, 1), t0);
-  book.sample(1, info("100"));
-  book.participant_gone(writer(1, 1).participant_guid, t0 + 1s);
+  announce_then_lose_by_lease(book);
   book.writer_left(1, {}, t0 + 1s);  // its writer goes with it: the grace still decides
   auto dev = table.find(id("100"));
   ASSERT_TRUE(dev);
@@ -52,9 +57,7 @@ TEST(RemovalGrace, HeardAgainWithinTheGraceIsKeptAndUnmarked) {
 TEST(RemovalGrace, NotHeardAgainIsRemovedByLeaseWhenTheGraceEnds) {
   rsd::SharedTable table;
   DomainBook book(table, with_grace(5s));
-  book.writer_matched(1, writer(1, 1), t0);
-  book.sample(1, info("100"));
-  book.participant_gone(writer(1, 1).participant_guid, t0 + 1s);
+  announce_then_lose_by_lease(book);
   book.tick(t0 + 5900ms, {});
   EXPECT_TRUE(table.find(id("100")));
   book.tick(t0 + 6s, {});
@@ -72,9 +75,7 @@ TEST(RemovalGrace, NotHeardAgainIsRemovedByLeaseWhenTheGraceEnds) {
 TEST(RemovalGrace, WithoutItTheLeaseRemovesAtOnceAndTheLossIsHandedOn) {
   rsd::SharedTable table;
   DomainBook book(table, with_grace(0ms));
-  book.writer_matched(1, writer(1, 1), t0);
-  book.sample(1, info("100"));
-  book.participant_gone(writer(1, 1).participant_guid, t0 + 1s);
+  announce_then_lose_by_lease(book);
   EXPECT_FALSE(table.find(id("100")));
   EXPECT_EQ(book.take_lease_losses().size(), 1u);
   EXPECT_TRUE(book.take_lease_losses().empty());  // taken once
