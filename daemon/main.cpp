@@ -177,13 +177,17 @@ int main(int argc, char** argv) {
     const auto wait = std::chrono::ceil<std::chrono::milliseconds>(std::min(
         {domains.tick(now), network.tick(now), service.tick(now), Clock::duration(next_trim - now)}));
     // fd -1: not polled
-    pollfd pfds[4] = {
-        {signal_fd, POLLIN, 0}, {network.fd(), POLLIN, 0}, {usb.fd(), POLLIN, 0}, {domains.fd(), POLLIN, 0}};
+    pollfd pfds[5] = {{signal_fd, POLLIN, 0},
+                      {network.fd(), POLLIN, 0},
+                      {usb.fd(), POLLIN, 0},
+                      {domains.fd(), POLLIN, 0},
+                      {service.fd(), POLLIN, 0}};
     const int timeout = static_cast<int>(std::max<std::int64_t>(wait.count(), 1));
-    if (poll(pfds, 4, timeout) <= 0) continue;
+    if (poll(pfds, 5, timeout) <= 0) continue;
     if (pfds[1].revents & POLLIN) network.readable(Clock::now());
     if (pfds[2].revents & POLLIN) usb_changed = usb.changed();
     if (pfds[3].revents & POLLIN) domains.woken();  // the sessions tick at the next turn
+    if (pfds[4].revents & POLLIN) service.table_changed();  // STATUS= at the next turn
     if (!(pfds[0].revents & POLLIN)) continue;
     signalfd_siginfo si{};
     if (read(signal_fd, &si, sizeof si) != static_cast<ssize_t>(sizeof si)) continue;

@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <optional>
 #include <cerrno>
 #include <cstring>
 #include <mutex>
@@ -46,6 +47,7 @@ struct ApiServer::Impl : Handlers {
   std::unique_ptr<RequestServer> offline_unix, offline_http;  // answer()
   std::unique_ptr<ListReplay> unix_replay, http_replay;    // the plain list, past httplib
   std::unique_ptr<ServerLoop> server_loop;
+  std::optional<SharedTable::HookId> change_hook;  // the loop's, while it runs
   int unix_fd = -1;
   int http_fd = -1;
   HostCheck host_check;  // the HTTP listener's
@@ -186,7 +188,7 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
     server_loop = std::make_unique<ServerLoop>(lo);
     loop = server_loop.get();
     server_loop->start(listeners);
-    table.set_change_hook([l = loop] { l->notify_change(); });
+    change_hook = table.add_change_hook([l = loop] { l->notify_change(); });
     for (const auto& l : listeners) log::info("api: listening on " + l.name);
   } catch (...) {
     started = true;  // so that stop_locked() undoes what did start
@@ -205,7 +207,8 @@ void ApiServer::Impl::stop_locked() {
   if (!started) return;
   stopping = true;
   // No change reaches the loop once this returns (the hook is not running).
-  table.set_change_hook(nullptr);
+  if (change_hook) table.remove_change_hook(*change_hook);
+  change_hook.reset();
   if (server_loop) server_loop->stop(kStopGrace);
   loop = nullptr;
   server_loop.reset();

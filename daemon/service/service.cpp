@@ -46,7 +46,7 @@ std::string expected_text(const model::ExpectedReport& report) {
   return text;
 }
 
-Service::Service(const SharedTable& table, DomainSet& domains, UsbWatch& usb, ExpectedSet& expected, Config config,
+Service::Service(SharedTable& table, DomainSet& domains, UsbWatch& usb, ExpectedSet& expected, Config config,
                  std::vector<std::string> args)
     : table_(table), domains_(domains), usb_(usb), expected_(expected), config_(std::move(config)),
       args_(std::move(args)) {
@@ -55,9 +55,15 @@ Service::Service(const SharedTable& table, DomainSet& domains, UsbWatch& usb, Ex
     log::debug("service: notifying the service manager" +
                (notifier_.watchdog() ? "; watchdog every " + std::to_string(notifier_.watchdog()->count()) + " us"
                                      : std::string()));
+  change_hook_ = table_.add_change_hook([wake = &table_changed_] { wake->wake(); });
+  count(Clock::now());
   last_status_ = current_status(false);
   notifier_.send("STATUS=" + last_status_);
 }
+
+Service::~Service() { table_.remove_change_hook(change_hook_); }
+
+void Service::table_changed() { table_changed_.take(); }
 
 void Service::api_listening() { api_up_ = true; }
 
@@ -75,14 +81,17 @@ bool Service::healthy(std::string* why) const {
   return true;
 }
 
-std::string Service::current_status(bool ready) {
+void Service::count(Clock::time_point now) {
   const auto generation = table_.generation();
-  if (generation != counted_generation_) {
-    const auto snap = table_.snapshot();
-    device_count_ = snap.devices.size();
-    expected_text_ = expected_text(expected_report(config_.expect, snap.devices, domains_.discovery_complete()));
-    counted_generation_ = generation;
-  }
+  if (generation == counted_generation_) return;
+  const auto snap = table_.snapshot();
+  device_count_ = snap.devices.size();
+  expected_text_ = expected_text(expected_report(config_.expect, snap.devices, domains_.discovery_complete()));
+  counted_generation_ = generation;
+  next_count_ = now + kCountEvery;
+}
+
+std::string Service::current_status(bool ready) {
   std::string note = expected_text_;
   if (!note_.empty()) note += (note.empty() ? "" : "; ") + note_;
   std::string why;
@@ -94,8 +103,12 @@ std::string Service::current_status(bool ready) {
 }
 
 Service::Clock::duration Service::tick(Clock::time_point now) {
+  // A burst of changes (a flood of cameras coming and going) is counted once per
+  // kCountEvery, not once per change: the count reads the whole table.
+  if (now >= next_count_) count(now);
   if (!ready_sent_ && api_up_ && domains_.all_reading()) {
     ready_sent_ = true;
+    count(now);
     last_status_ = current_status(true);
     notifier_.send("READY=1\nSTATUS=" + last_status_);
     // The count is the table's only once every domain's first discovery is over (a
@@ -113,11 +126,15 @@ Service::Clock::duration Service::tick(Clock::time_point now) {
     }
   }
   if (!done_word_.empty() && ready_sent_ && domains_.discovery_complete()) {
+    count(now);
     log::notice(done_word_ + current_status(true));
     done_word_.clear();
   }
 
-  Clock::duration wait = std::chrono::seconds(1);  // STATUS= follows the table within this
+  // Nothing to do until the table changes (its hook wakes the main loop through
+  // fd()), a count held back is due, or the watchdog is.
+  Clock::duration wait = std::chrono::hours(1);
+  if (table_.generation() != counted_generation_) wait = std::max(Clock::duration::zero(), next_count_ - now);
   if (!done_word_.empty()) wait = std::chrono::milliseconds(100);  // the log line follows completion closely
   if (const auto interval = notifier_.watchdog()) {
     if (now >= next_watchdog_) {
@@ -156,6 +173,7 @@ void Service::reload() {
     // Nothing changed: ready again at once, and no "reloaded" line for what was not.
     reloading_ = false;
     ready_sent_ = true;
+    count(Clock::now());
     last_status_ = current_status(true);
     notifier_.send("READY=1\nSTATUS=" + last_status_);
     return;

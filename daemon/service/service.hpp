@@ -10,6 +10,7 @@
 #include "service/network_watch.hpp"
 #include "service/notifier.hpp"
 #include "service/usb_watch.hpp"
+#include "service/wake_fd.hpp"
 #include "table/shared_table.hpp"
 
 #include <chrono>
@@ -36,8 +37,16 @@ class Service {
   // `args` is the command line the daemon started with: a reload parses it
   // again, so flags keep winning over the re-read config file.
   // `expected` is set from the configuration here and on every reload.
-  Service(const SharedTable& table, DomainSet& domains, UsbWatch& usb, ExpectedSet& expected, Config config,
+  Service(SharedTable& table, DomainSet& domains, UsbWatch& usb, ExpectedSet& expected, Config config,
           std::vector<std::string> args);
+  ~Service();
+  Service(const Service&) = delete;
+  Service& operator=(const Service&) = delete;
+
+  // Readable when the table changed since table_changed(): the main loop polls it
+  // and then calls tick(), which keeps STATUS= current without a clock.
+  int fd() const { return table_changed_.fd(); }
+  void table_changed();
 
   void api_listening();  // the last READY=1 condition besides the domains
   // SIGHUP: re-reads the configuration and applies what can change live (the
@@ -57,9 +66,15 @@ class Service {
   void set_network(NetworkWatch* network) { network_ = network; }
 
  private:
+  // STATUS= keeps up with the table at most this often.
+  static constexpr Clock::duration kCountEvery = std::chrono::seconds(1);
+
+  void count(Clock::time_point now);  // the table's device count and expected cameras, if it changed
   std::string current_status(bool ready);
 
-  const SharedTable& table_;
+  SharedTable& table_;
+  WakeFd table_changed_;
+  SharedTable::HookId change_hook_ = 0;
   DomainSet& domains_;
   UsbWatch& usb_;
   ExpectedSet& expected_;
@@ -77,6 +92,7 @@ class Service {
   std::uint64_t counted_generation_ = ~std::uint64_t{0};
   std::size_t device_count_ = 0;
   std::string expected_text_;  // of counted_generation_
+  Clock::time_point next_count_{};  // a change before this is counted then
   Clock::time_point next_watchdog_{};
   bool unhealthy_logged_ = false;
 };

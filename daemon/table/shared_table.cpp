@@ -7,12 +7,18 @@ namespace rsd {
 void SharedTable::announce() {
   changed_.notify_all();
   std::lock_guard lock(hook_mutex_);
-  if (hook_) hook_();
+  for (const auto& [id, hook] : hooks_) hook();
 }
 
-void SharedTable::set_change_hook(std::function<void()> hook) {
+SharedTable::HookId SharedTable::add_change_hook(std::function<void()> hook) {
   std::lock_guard lock(hook_mutex_);
-  hook_ = std::move(hook);
+  hooks_.emplace(next_hook_, std::move(hook));
+  return next_hook_++;
+}
+
+void SharedTable::remove_change_hook(HookId id) {
+  std::lock_guard lock(hook_mutex_);
+  hooks_.erase(id);
 }
 
 std::optional<DeviceEvent> SharedTable::upsert(const std::string& id, nlohmann::json doc) {

@@ -56,11 +56,13 @@ class SharedTable {
   // at once when there are some, when there is a gap, or after close().
   EventsSince wait_events(std::uint64_t generation, std::chrono::milliseconds timeout) const;
 
-  // Runs `hook` (on the writing thread, after the lock is released) whenever an
-  // event was logged: the API's event loops wake on it instead of waiting on the
-  // table. One hook at a time; nullptr removes it, and once this returns the
-  // previous hook is not running and will not run again.
-  void set_change_hook(std::function<void()> hook);
+  // Runs each hook (on the writing thread, after the lock is released) whenever an
+  // event was logged: the API's event loops and the service's STATUS= wake on it
+  // instead of waiting on the table or polling it. Once remove_change_hook returns,
+  // that hook is not running and will not run again.
+  using HookId = unsigned;
+  HookId add_change_hook(std::function<void()> hook);
+  void remove_change_hook(HookId id);
 
   // Wakes every waiter for good: the daemon is stopping.
   void close();
@@ -74,7 +76,8 @@ class SharedTable {
   mutable std::mutex mutex_;
   mutable std::condition_variable changed_;
   std::mutex hook_mutex_;  // never held with mutex_
-  std::function<void()> hook_;
+  std::map<HookId, std::function<void()>> hooks_;
+  HookId next_hook_ = 0;
   void announce();  // wakes waiters and runs the hook
   std::string gone_cutoff() const;  // now - gone_keep, as iso8601
   DeviceTable table_;
