@@ -132,6 +132,29 @@ def cpu_seconds(pid):
     return (int(fields[11]) + int(fields[12])) / tck  # utime + stime (fields 14, 15)
 
 
+# Cyclone DDS's own threads, by the names it gives them (its receive, timed-event,
+# delivery-queue, garbage-collector, lease and transmit threads).
+CYCLONE_THREADS = ("recv", "recvUC", "recvMC", "tev", "dq.", "gc", "lease", "xmit")
+
+
+def thread_switches(pid):
+    """Voluntary context switches (a thread's wake-ups from a wait) per group of the
+    daemon's threads: main (the event loop), cyclone (CYCLONE_THREADS) and other (the
+    API's loops, the USB event thread)."""
+    out = {"main": 0, "cyclone": 0, "other": 0}
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        try:
+            with open(f"/proc/{pid}/task/{tid}/comm") as f:
+                comm = f.read().strip()
+            with open(f"/proc/{pid}/task/{tid}/status") as f:
+                n = next(int(line.split()[1]) for line in f if line.startswith("voluntary_ctxt_switches"))
+        except (OSError, StopIteration):
+            continue  # a thread that ended meanwhile
+        group = "main" if int(tid) == pid else "cyclone" if comm.startswith(CYCLONE_THREADS) else "other"
+        out[group] += n
+    return out
+
+
 def device_info(n, prefix="9"):
     serial = f"{prefix}{n:011d}"
     return {"name": "Intel RealSense D455", "serial": serial, "product-line": "D400", "product-id": "0B5C",

@@ -85,7 +85,8 @@ SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "
 
 import scale_large  # noqa: E402
 from bench_common import (  # noqa: E402
-    BenchError, log, wait_until, stats, ratio, med_of, Lines, unix_get, rss_kb, cpu_seconds, device_info)
+    BenchError, log, wait_until, stats, ratio, med_of, Lines, unix_get, rss_kb, cpu_seconds, device_info,
+    thread_switches)
 
 
 class Bench:
@@ -510,16 +511,20 @@ http {{
                 "rs_discover_list_ms": cli, "ratio_rs_discover_to_librealsense": ratio(cli, q.get("median"))}
 
     # -- idle -----------------------------------------------------------------------------
-    def idle_cpu(self, pid, secs):
-        c0, t0 = cpu_seconds(pid), time.monotonic()
+    def idle_cpu(self, pid, secs, wakeups=None):
+        c0, w0, t0 = cpu_seconds(pid), thread_switches(pid), time.monotonic()
         time.sleep(secs)  # the measurement window itself, not a wait for a condition
-        c1, t1 = cpu_seconds(pid), time.monotonic()
+        c1, w1, t1 = cpu_seconds(pid), thread_switches(pid), time.monotonic()
+        if wakeups is not None:
+            wakeups.update({k: round((w1[k] - w0[k]) / (t1 - t0) * 60, 1) for k in w0})
         return (c1 - c0) / (t1 - t0) * 60
 
     def bench_idle(self):
         pid = self.main.proc.pid
+        wakeups = {}
+        cpu = self.idle_cpu(pid, self.p["idle_secs"], wakeups)
         return {"devices": self.devices, "window_s": self.p["idle_secs"],
-                "cpu_s_per_min_no_clients": self.idle_cpu(pid, self.p["idle_secs"]),
+                "cpu_s_per_min_no_clients": cpu, "wakeups_per_min": wakeups,
                 "rss_kb": rss_kb(pid),
                 "note": "utime+stime from /proc/PID/stat (clock ticks: 10 ms resolution); "
                         "with watchers: see fanout.idle_cpu_s_per_min_with_watchers"}
@@ -1010,9 +1015,13 @@ http {{
         if "cpu_s_per_min_no_clients" in idle:
             v = idle["cpu_s_per_min_no_clients"]
             vw = fo.get("idle_cpu_s_per_min_with_watchers")
+            wk = idle.get("wakeups_per_min", {})
             rows.append({"comparison": f"idle CPU, {idle['devices']} devices ({idle['window_s']} s window)",
                          "rs_discoveryd": f"{f(v, 3)} CPU-s/min, no clients; {f(vw, 3)} CPU-s/min with "
-                                          f"{fo.get('connected', '–')} SSE watchers; RSS {f(idle['rss_kb'] / 1024, 1)} MB",
+                                          f"{fo.get('connected', '–')} SSE watchers; RSS {f(idle['rss_kb'] / 1024, 1)} MB; "
+                                          f"wake-ups/min, no clients: main loop {f(wk.get('main'), 1)}, "
+                                          f"other daemon threads {f(wk.get('other'), 1)} "
+                                          f"(Cyclone's own {f(wk.get('cyclone'), 1)})",
                          "anchor": "", "ratio": "",
                          "target": "≤ 0.3 CPU-s/min: " + verdict(v <= 0.3 and (vw is None or vw <= 0.3))})
         for s in SECTIONS:
