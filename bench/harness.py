@@ -25,6 +25,8 @@ same run:
                 daemon with every cap at 1: Cyclone's share), full and filtered lists under 10
                 clients, one change to 100 SSE watchers (bench/scale_large.py)
   fanout        100 SSE watchers: change -> last watcher
+  share         a USB camera plugged on host A -> listed on host B, sharing on, and unplugged
+                (two network namespaces, umockdev; bench/share_latency.py)
   describe      Camera Discovery of a 5-stream realdds camera: first request -> description,
                 and a cached one, against pyrealdds' own device.wait_until_ready()
   idle          CPU-seconds per minute with N devices, with no client and with the watchers
@@ -80,7 +82,7 @@ MODES = {
                   open_reps=1),
 }
 SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout", "describe",
-            "idle", "open", "scale10k"]
+            "idle", "open", "scale10k", "share"]
 
 
 import scale_large  # noqa: E402
@@ -234,6 +236,7 @@ class Bench:
             self.section("describe", self.bench_describe)
             self.section("open", self.bench_open)
             self.section("scale10k", lambda: scale_large.run(self))
+            self.section("share", self.bench_share)
         finally:
             for fn in reversed(self.cleanup):
                 try:
@@ -528,6 +531,16 @@ http {{
                 "rss_kb": rss_kb(pid),
                 "note": "utime+stime from /proc/PID/stat (clock ticks: 10 ms resolution); "
                         "with watchers: see fanout.idle_cpu_s_per_min_with_watchers"}
+
+    # -- share ------------------------------------------------------------------------------
+    def bench_share(self):
+        rounds = {"full": 30, "quick": 10, "smoke": 2}[self.mode]
+        r = subprocess.run([sys.executable, os.path.join(HERE, "share_latency.py"), "--build", self.build,
+                            "--rounds", str(rounds)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           timeout=60 + 5 * rounds)
+        if r.returncode != 0:
+            raise BenchError(f"share_latency.py exited {r.returncode}: {r.stderr[-1500:]}")
+        return json.loads(r.stdout.strip().splitlines()[-1])
 
     # -- fan-out ----------------------------------------------------------------------------
     def bench_fanout(self):
@@ -1011,6 +1024,16 @@ http {{
                          "ratio": "",
                          "target": "last watcher ≤ 20 ms p99 after the first: " + verdict(
                              None if p99 is None else p99 <= 20 and fo["connected"] == fo["watchers"])})
+        sh = R.get("share", {})
+        if "a_to_b" in sh:
+            rows.append({"comparison": f"share: USB plug on host A → listed on host B ({sh['rounds']} rounds)",
+                         "rs_discoveryd": f"A's `added` → B's `added` {f(med(sh['a_to_b']), 2)} ms"
+                                          f"{spread(sh['a_to_b'], 2)}; unplug: A's `removed` → B's "
+                                          f"{f(med(sh['a_to_b_removed']), 2)} ms{spread(sh['a_to_b_removed'], 2)}",
+                         "anchor": f"plug → A's own `added` {f(med(sh['plug_to_a']), 2)} ms; unplug → A's "
+                                   f"`removed` {f(med(sh['unplug_to_a']), 2)} ms",
+                         "ratio": "",
+                         "target": "≤ 5 ms plus DDS delivery: " + verdict(sh["a_to_b"]["max"] <= 5)})
         idle = R.get("idle", {})
         if "cpu_s_per_min_no_clients" in idle:
             v = idle["cpu_s_per_min_no_clients"]

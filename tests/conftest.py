@@ -317,7 +317,8 @@ class JsonLinesProcess:
 
 
 class EventStream:
-    """A client of /v1/events, read on a thread so tests can wait with deadlines."""
+    """A client of /v1/events, read on a thread so tests can wait with deadlines.
+    Each event carries "t", the time.monotonic() its last line was read at."""
 
     def __init__(self, daemon, last_event_id=None, via="unix", query=""):
         import queue
@@ -349,6 +350,7 @@ class EventStream:
                 line = line.decode("utf-8").rstrip("\r\n")
                 if line == "":
                     if event:
+                        event["t"] = time.monotonic()
                         if "data" in event:
                             try:
                                 event["json"] = json.loads(event["data"])

@@ -8,7 +8,7 @@ import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout", "idle",
-            "open", "scale10k"]
+            "open", "scale10k", "share"]
 
 
 def test_bench_run_smoke(tmp_path):
@@ -37,6 +37,9 @@ def test_bench_run_smoke(tmp_path):
     assert s["librealsense"]["query_ms"]["n"] >= 1
     assert s["scale"]["devices"] > 0 and s["scale"]["rss_kb"] > 0
     assert s["fanout"]["connected"] > 0
+    assert set(s["idle"]["wakeups_per_min"]) == {"main", "cyclone", "other"}
+    for leg in ("plug_to_a", "a_to_b", "unplug_to_a", "a_to_b_removed"):  # host A's own events beside B's
+        assert s["share"][leg]["n"] == s["share"]["rounds"]
     for path in ("query-devices", "devices-changed", "librealsense", "realdds"):  # each beside its anchor
         assert s["open"]["paths"][path]["ready_ms"]["n"] >= 1 and s["open"]["paths"][path]["first_frame_ms"]["n"] >= 1
     big = s["scale10k"]  # the 10,000-camera row, small: every camera listed, memory split, reads, fan-out
