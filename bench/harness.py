@@ -277,11 +277,11 @@ class Bench:
             return None
 
     # -- http ------------------------------------------------------------------------------
-    def start_nginx(self, body):
+    def start_nginx(self, body, name="nginx"):
         nginx = shutil.which("nginx") or "/usr/sbin/nginx"
         if not os.path.exists(nginx):
             raise BenchError("nginx is not installed (dev.sh installs nginx-light)")
-        base = os.path.join(self.tmp, "nginx")
+        base = os.path.join(self.tmp, name)
         os.makedirs(os.path.join(base, "www"), exist_ok=True)
         for sub in ("body", "proxy", "fastcgi", "uwsgi", "scgi"):
             os.makedirs(os.path.join(base, sub), exist_ok=True)

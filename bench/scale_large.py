@@ -10,7 +10,7 @@ Two daemons watch the same domains at once:
          its reliable-reader state), but the table holds one camera. Its growth is
          Cyclone's cost per camera; the full daemon's growth beyond it is the daemon's.
 Measured: the time from the last announcement to all listed, RSS, GET /v1/devices of all
-(10 clients, rsd-load over the Unix socket), a filtered list (one serial), and one change
+(10 clients, rsd-load and curl over the Unix socket), a filtered list (one serial), and one change
 to 100 SSE watchers (a camera added, then its writer deleted).
 """
 import json
@@ -94,14 +94,31 @@ def run(b):
     }
 
     # Reading it: all of it, and a filtered list, 10 clients each.
-    def load(path):
-        r = subprocess.run([b.load, "http", "--unix", full.socket, "--path", path, "-c", "10", "-t", "2",
+    def load(path, sock=full.socket):
+        r = subprocess.run([b.load, "http", "--unix", sock, "--path", path, "-c", "10", "-t", "2",
                             "-d", str(secs)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            timeout=secs + 60)
         if r.returncode != 0:
             raise BenchError(f"rsd-load {path}: {r.stderr[-500:]}")
         return json.loads(r.stdout)
     res["list_all"] = load("/v1/devices")
+
+    # The same with curl, a C client outside this project: 10 loops of curl at once,
+    # each request's own time (curl's time_total: connect to last byte, not its start).
+    def curl_load(path, sock=full.socket):
+        loop = (f'end=$(( $(date +%s) + {secs} )); while [ $(date +%s) -lt $end ]; do '
+                f'curl -s -o /dev/null -w "%{{time_total}}\\n" --unix-socket {sock} http://localhost{path}; done')
+        procs = [subprocess.Popen(["sh", "-c", loop], stdout=subprocess.PIPE, text=True) for _ in range(10)]
+        times = [float(x) * 1000 for p in procs for x in p.communicate(timeout=secs + 60)[0].split()]
+        if not times:
+            raise BenchError(f"curl {path}: no request completed")
+        times.sort()
+        return {"requests": len(times), "p50_ms": times[len(times) // 2], "p99_ms": times[int(len(times) * 0.99)]}
+    res["list_all_curl"] = curl_load("/v1/devices")
+    # The anchor: nginx serving the same bytes from a file, read the same two ways.
+    _, nginx_sock, _ = b.start_nginx(body, "nginx-scale10k")
+    res["list_all_nginx"] = load("/v1/devices", nginx_sock)
+    res["list_all_curl_nginx"] = curl_load("/v1/devices", nginx_sock)
     res["list_filtered"] = load(f"/v1/devices?serial={one}")
     res["rss_kb_after_reads"] = rss_kb(full.proc.pid)
 
@@ -160,7 +177,8 @@ def rows(r, f):
     n = r["devices"]
     mem = r["memory_per_device_bytes"]
     rss_mb = r["rss_kb"] / 1024
-    la, lf, fo = r["list_all"], r["list_filtered"], r["fanout"]
+    la, lc, lf, fo = r["list_all"], r["list_all_curl"], r["list_filtered"], r["fanout"]
+    na, nc = r["list_all_nginx"], r["list_all_curl_nginx"]
     fo_p99 = fo["change_to_last_watcher_ms"].get("p99", fo["change_to_last_watcher_ms"].get("max"))
     spread = fo["first_to_last_watcher_ms"]
     kinds = fo.get("change_to_last_watcher_ms_by_kind", {})
@@ -180,8 +198,12 @@ def rows(r, f):
                           f"at 1 beside it), the daemon's own {f(mem['daemon'], 0)} B",
          "anchor": f"its JSON document {f(mem['json_document'], 0)} B", "ratio": "", "target": ""},
         {"comparison": f"`GET /v1/devices` of all {n:,} ({f(r['list_bytes'] / 1e6, 2)} MB), 10 clients, unix",
-         "rs_discoveryd": f"p99 {f(la['p99_ms'], 2)} ms, p50 {f(la['p50_ms'], 2)} ms, {f(la['rps'], 0)} req/s",
-         "anchor": "", "ratio": "", "target": "p99 ≤ 25 ms: " + verdict(la["p99_ms"] <= 25)},
+         "rs_discoveryd": f"rsd-load: p99 {f(la['p99_ms'], 2)} ms, p50 {f(la['p50_ms'], 2)} ms, {f(la['rps'], 0)} req/s; "
+                          f"curl: p99 {f(lc['p99_ms'], 2)} ms, p50 {f(lc['p50_ms'], 2)} ms ({lc['requests']} requests)",
+         "anchor": f"nginx, the same bytes: rsd-load p99 {f(na['p99_ms'], 2)} ms, {f(na['rps'], 0)} req/s; "
+                   f"curl p99 {f(nc['p99_ms'], 2)} ms, p50 {f(nc['p50_ms'], 2)} ms ({nc['requests']} requests)",
+         "ratio": f"{f(la['p99_ms'] / na['p99_ms'], 2)}× p99 (rsd-load), {f(lc['p99_ms'] / nc['p99_ms'], 2)}× (curl)",
+         "target": "p99 ≤ 25 ms: " + verdict(la["p99_ms"] <= 25 and lc["p99_ms"] <= 25)},
         {"comparison": f"a filtered list (one serial of {n:,}), 10 clients, unix",
          "rs_discoveryd": f"p99 {f(lf['p99_ms'], 3)} ms, p50 {f(lf['p50_ms'], 3)} ms, {f(lf['rps'], 0)} req/s",
          "anchor": "", "ratio": "", "target": "p99 ≤ 2 ms: " + verdict(lf["p99_ms"] <= 2)},
