@@ -365,6 +365,15 @@ std::string render_metrics(const MetricsInput& in) {
                n == d.writers_refused.end() ? 0 : n->second);
     }
 
+  w.family("rsd_endpoints_refused_total", "counter",
+           "readers and writers refused by an endpoint cap, or kept without their topic name, by reason.");
+  for (const auto& d : in.domains)
+    for (const char* reason : kEndpointRefusedReasons) {  // 0 until it happens
+      const auto n = d.endpoints_refused.find(reason);
+      w.sample("rsd_endpoints_refused_total", {{"domain", std::to_string(d.domain)}, {"reason", reason}},
+               n == d.endpoints_refused.end() ? 0 : n->second);
+    }
+
   if (in.usb) {
     w.family("rsd_usb_up", "gauge", "1 when local USB is watched (hotplug or polling), by state.");
     w.sample("rsd_usb_up", {{"state", in.usb->state}},

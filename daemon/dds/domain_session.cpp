@@ -443,6 +443,9 @@ DomainStatus DomainSession::status() const {
   book_.fill(s);
   for (const auto& [reason, n] : fetcher_.rejected()) s.rejected[reason] += n;
   for (const auto& [reason, n] : shared.rejected) s.rejected[reason] += n;
+  for (const auto r : {EndpointRefusal::participant_limit, EndpointRefusal::domain_limit,
+                       EndpointRefusal::topic_too_long, EndpointRefusal::topic_limit})
+    if (const auto n = participants_.endpoints().refused(r)) s.endpoints_refused[to_string(r)] = n;
   s.rebuilds = rebuilds_;
   s.refreshes = refreshes_;
   if (!options_.interfaces_from_cyclone_config)

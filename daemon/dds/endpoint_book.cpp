@@ -1,6 +1,8 @@
 // EndpointBook: endpoints by participant and by topic, bounded (endpoint_book.hpp).
 #include "dds/endpoint_book.hpp"
 
+#include "status/reasons.hpp"
+
 #include <algorithm>
 
 namespace rsd::dds {
@@ -8,10 +10,10 @@ namespace rsd::dds {
 const char* to_string(EndpointRefusal r) {
   switch (r) {
     case EndpointRefusal::none: return "none";
-    case EndpointRefusal::participant_limit: return "participant-endpoint-limit";
-    case EndpointRefusal::domain_limit: return "domain-endpoint-limit";
-    case EndpointRefusal::topic_too_long: return "topic-name-too-long";
-    case EndpointRefusal::topic_limit: return "domain-topic-limit";
+    case EndpointRefusal::participant_limit: return kParticipantEndpointLimit;
+    case EndpointRefusal::domain_limit: return kDomainEndpointLimit;
+    case EndpointRefusal::topic_too_long: return kTopicNameTooLong;
+    case EndpointRefusal::topic_limit: return kDomainTopicLimit;
   }
   return "none";
 }

@@ -26,4 +26,13 @@ inline constexpr const char* kParticipantWriterLimit = "participant-writer-limit
 inline constexpr const char* kDomainWriterLimit = "domain-writer-limit";
 inline constexpr const char* kWriterRefusedReasons[] = {kParticipantWriterLimit, kDomainWriterLimit};
 
+// Endpoints (readers and writers of any topic) refused by an endpoint cap, or kept
+// without their topic (dds/endpoint_book.cpp).
+inline constexpr const char* kParticipantEndpointLimit = "participant-endpoint-limit";
+inline constexpr const char* kDomainEndpointLimit = "domain-endpoint-limit";
+inline constexpr const char* kTopicNameTooLong = "topic-name-too-long";
+inline constexpr const char* kDomainTopicLimit = "domain-topic-limit";
+inline constexpr const char* kEndpointRefusedReasons[] = {kParticipantEndpointLimit, kDomainEndpointLimit,
+                                                           kTopicNameTooLong, kDomainTopicLimit};
+
 }  // namespace rsd

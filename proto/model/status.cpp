@@ -21,6 +21,7 @@ constexpr const char* refreshes = "refreshes";
 constexpr const char* lost_servers = "lost-servers";
 constexpr const char* writers = "device-info-writers";
 constexpr const char* writers_refused = "writers-refused";
+constexpr const char* endpoints_refused = "endpoints-refused";
 constexpr const char* interfaces = "interfaces";
 constexpr const char* name = "name";
 constexpr const char* addresses = "addresses";
@@ -48,6 +49,8 @@ nlohmann::json to_json(const DomainStatus& s) {
   for (const auto& [reason, n] : s.rejected) rejected[reason] = n;
   nlohmann::json refused = nlohmann::json::object();
   for (const auto& [reason, n] : s.writers_refused) refused[reason] = n;
+  nlohmann::json endpoints_refused = nlohmann::json::object();
+  for (const auto& [reason, n] : s.endpoints_refused) endpoints_refused[reason] = n;
   nlohmann::json interfaces = nlohmann::json::array();
   for (const auto& i : s.interfaces) interfaces.push_back({{key::name, i.name}, {key::addresses, i.addresses}});
   return {{key::domain, s.domain},
@@ -63,6 +66,7 @@ nlohmann::json to_json(const DomainStatus& s) {
           {key::lost_servers, s.lost_servers},
           {key::writers, s.writers},
           {key::writers_refused, std::move(refused)},
+          {key::endpoints_refused, std::move(endpoints_refused)},
           {key::interfaces, std::move(interfaces)},
           {key::network_changes, s.network_changes},
           {key::network_changed_at, s.network_changed_at},
@@ -97,6 +101,11 @@ DomainStatus domain_status_from_json(const nlohmann::json& doc) {
   if (const auto it = doc.find(key::writers_refused); it != doc.end()) {
     if (!it->is_object()) throw MalformedDocument("a domain entry's \"writers-refused\" is not an object");
     for (const auto& [reason, n] : it->items()) s.writers_refused[reason] = count_value(n, reason, what);
+  }
+  // A daemon from before the endpoint caps leaves them out.
+  if (const auto it = doc.find(key::endpoints_refused); it != doc.end()) {
+    if (!it->is_object()) throw MalformedDocument("a domain entry's \"endpoints-refused\" is not an object");
+    for (const auto& [reason, n] : it->items()) s.endpoints_refused[reason] = count_value(n, reason, what);
   }
   // Since the daemon follows the host's network (issue 21); absent before.
   if (const auto it = doc.find(key::interfaces); it != doc.end()) {

@@ -239,3 +239,26 @@ def test_librealsense_streaming_through_a_pipeline_is_a_client(free_domain, daem
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def test_a_topic_name_too_long_is_counted_and_the_endpoint_kept(free_domain, daemon, cyclone_peer):
+    """A peer naming its reader with a 300-byte topic: the endpoint is still counted
+    for its participant, its topic is not kept, and the refusal shows in /v1/domains,
+    /metrics and the Python client, while the daemon keeps answering."""
+    d = daemon([free_domain])
+    cyclone_peer(free_domain, "reader", topic="flood/" + "x" * 294)
+
+    def refused():
+        return d.get_json("/v1/domains")["domains"][0]["endpoints-refused"]
+    wait_for(lambda: refused() == {"topic-name-too-long": 1}, what="the long topic name refused, once")
+    validate_response("/v1/domains", 200, d.get_json("/v1/domains"))
+    metrics = d.request("/metrics")[2].decode()
+    assert f'rsd_endpoints_refused_total{{domain="{free_domain}",reason="topic-name-too-long"}} 1' in metrics
+    assert f'rsd_endpoints_refused_total{{domain="{free_domain}",reason="participant-endpoint-limit"}} 0' in metrics
+    dom = rsdiscovery.Client("unix:" + d.socket).domains()[0]
+    assert dom.endpoints_refused == {"topic-name-too-long": 1}
+    # Kept without its topic: the peer's participant still counts the reader.
+    peers = [p for p in d.get_json("/v1/participants")["participants"] if p.get("endpoints", 0) >= 1]
+    assert peers, d.get_json("/v1/participants")
+    assert "endpoint of" in d.log() and "topic-name-too-long" in d.log()
+    assert d.healthy()

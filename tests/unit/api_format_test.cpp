@@ -370,6 +370,8 @@ TEST(ApiMetrics, KnownLabelValuesAreThereAtZero) {
                            "rsd_messages_rejected_total{domain=\"7\",reason=\"refused-writer\"} 0\n",
                            "rsd_messages_rejected_total{domain=\"7\",reason=\"notification-not-json\"} 2\n",
                            "rsd_writers_refused_total{domain=\"7\",reason=\"domain-writer-limit\"} 0\n",
+                           "rsd_endpoints_refused_total{domain=\"7\",reason=\"topic-name-too-long\"} 0\n",
+                           "rsd_endpoints_refused_total{domain=\"7\",reason=\"participant-endpoint-limit\"} 0\n",
                            "rsd_api_requests_total{status=\"200\"} 3\n", "rsd_api_requests_total{status=\"404\"} 0\n",
                            "rsd_api_requests_total{status=\"503\"} 0\n", "rsd_api_requests_total{status=\"418\"} 1\n"})
     EXPECT_NE(text.find(line), std::string::npos) << line << "\nin:\n" << text;

@@ -61,6 +61,9 @@ struct DomainStatus {
   std::size_t lost_servers = 0;  // servers lost without 'stopping', still looked for
   std::size_t writers = 0;       // device-info writers matched and followed
   std::map<std::string, std::uint64_t> writers_refused;  // over a writer cap: reason -> writers
+  // Readers and writers (any topic) refused by an endpoint cap, or kept without their
+  // too long or too many topic names: reason -> endpoints
+  std::map<std::string, std::uint64_t> endpoints_refused;
   // The interfaces the daemon joined the domain on (loopback when nothing else is
   // usable); empty when the user's Cyclone configuration names them.
   std::vector<InterfaceStatus> interfaces;

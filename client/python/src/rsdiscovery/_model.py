@@ -360,7 +360,8 @@ class DomainStatus(_Document):
     ``complete`` is true once its first discovery is over; ``participant_guid`` is the
     daemon's own participant there. The counters are as proto/openapi.yaml describes them:
     device-info messages ``accepted``, ``rejected`` by reason, ``rebuilds``, ``refreshes``,
-    ``lost_servers``, ``writers_refused`` by reason, ``network_changes``."""
+    ``lost_servers``, ``writers_refused`` and ``endpoints_refused`` by reason,
+    ``network_changes``."""
 
     domain: int
     state: str
@@ -375,6 +376,7 @@ class DomainStatus(_Document):
     lost_servers: int
     device_info_writers: int
     writers_refused: Mapping[str, int]
+    endpoints_refused: Mapping[str, int]
     interfaces: Tuple[Interface, ...]
     network_changes: int
     network_changed_at: str
@@ -393,6 +395,7 @@ class DomainStatus(_Document):
                             lost_servers=r.get("lost-servers", int, 0),
                             device_info_writers=r.get("device-info-writers", int, 0),
                             writers_refused=r.counts("writers-refused"),
+                            endpoints_refused=r.counts("endpoints-refused"),
                             interfaces=tuple(Interface(name=i.req("name", str), addresses=i.strings("addresses"))
                                              for i in (_Read(x, "a domain's interface") for x in interfaces)),
                             network_changes=r.get("network-changes", int, 0),
