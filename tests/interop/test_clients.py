@@ -17,7 +17,9 @@ import time
 from conftest import TESTS_DIR, EventStream, wait_for
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "api"))
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "client"))
 from api_util import validate_response  # noqa: E402
+from client_util import WatchProcess  # noqa: E402
 
 CLI = os.path.join(os.environ["RSD_BUILD_DIR"], "client", "rs-discover")
 sys.path.insert(0, os.path.join(os.environ["RSD_SOURCE_DIR"], "client", "python", "src"))
@@ -103,6 +105,10 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     assert "in-use" not in device(d, xid)
 
     events = EventStream(d, query=f"?serial={x['serial']}")
+    watch = WatchProcess("unix:" + d.socket, "--serial", x["serial"])
+
+    def watched(text):
+        return any(x["serial"] in ln and text in ln for ln in watch.lines)
 
     # A client that only makes a device: a client with no streams.
     a = Client(free_domain, x, "my-robot-app")
@@ -119,6 +125,7 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     ev = events.next(types=("changed",))
     assert ev["json"]["in-use"] == {"clients": 1, "streaming": []}
     assert changes_within(events, 1.0) == []
+    wait_for(lambda: watched("a client came (1 client, not streaming)"), what="rs-discover watch's line")
     # A client of X is never one of Y.
     assert clients(d, yid)["clients"] == [] and "in-use" not in device(d, yid)
     assert [dev["id"] for dev in d.devices("?in-use=true")] == [xid]
@@ -151,6 +158,7 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     by_name = {c["name"]: c for c in clients(d, xid)["clients"]}
     assert by_name["depth-viewer"]["streams"] == ["Depth"] and by_name["my-robot-app"]["streams"] == []
     assert device(d, xid)["in-use"] == {"clients": 2, "streaming": ["Depth"]}
+    wait_for(lambda: watched("(2 clients, streaming Depth)"), what="watch: the streaming client came")
     table = subprocess.run(cli + ["clients", xid], capture_output=True, text=True, timeout=10).stdout
     assert "depth-viewer" in table and "streaming: Depth (1 reader)" in table
     listed = subprocess.run(cli + ["list"], capture_output=True, text=True, timeout=10).stdout
@@ -166,6 +174,7 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     print(f"clean exit: gone {(time.monotonic() - t0) * 1000:.0f} ms after quit")
     assert gone_b < 3.0
     assert device(d, xid)["in-use"] == {"clients": 1, "streaming": []}
+    wait_for(lambda: watched("a client left (1 client, not streaming)"), what="watch: the streaming client left")
     t0 = time.monotonic()
     a.kill()
     timed(lambda: names(d, xid) == [], "the killed client gone", timeout=LEASE + 10)
@@ -173,6 +182,10 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     print(f"SIGKILL: gone {killed * 1000:.0f} ms after the kill (lease {LEASE} s)")
     assert killed < LEASE + 2.0
     assert "in-use" not in device(d, xid)
+    wait_for(lambda: watched("its last client left"), what="watch: the last client left")
+    assert watch.interrupt() == 0, watch.errors
+    # Camera Y had no client: watch follows X only, and no line about Y's clients.
+    assert not [ln for ln in watch.lines if y["serial"] in ln], watch.lines
     events.close()
 
 
