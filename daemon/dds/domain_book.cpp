@@ -454,7 +454,7 @@ void DomainBook::set_in_use(const std::string& topic_root, const model::InUse& i
   if (in_use.clients > 0) now = in_use;
   if (it->second.doc.in_use == now) return;
   it->second.doc.in_use = std::move(now);
-  table_.upsert(id, model::to_json(it->second.doc));
+  table_.upsert(id, model::to_json(it->second.doc), /*heard=*/false);  // a client came, not the camera
 }
 
 std::set<std::string> DomainBook::topic_roots() const {

@@ -247,7 +247,7 @@ std::optional<DeviceEvent> DeviceTable::event_for(const std::vector<DeviceEvent>
 }
 
 std::optional<DeviceEvent> DeviceTable::upsert(const std::string& id, nlohmann::json doc,
-                                               const std::string& now) {
+                                               const std::string& now, bool heard) {
   if (!doc.is_object()) doc = nlohmann::json::object();
   doc.erase(kSources);
   doc.erase(kMergedInto);
@@ -260,6 +260,7 @@ std::optional<DeviceEvent> DeviceTable::upsert(const std::string& id, nlohmann::
     doc[kFirstSeen] = now;
   } else {
     doc[kFirstSeen] = old->second.first_seen.value_or(now);
+    if (!heard && old->second.last_seen) doc[kLastSeen] = *old->second.last_seen;
     index(id, old->second, false);
   }
   model::Device sighting = model::device_from_json(doc);

@@ -170,8 +170,10 @@ class DeviceTable {
   // on the entry that now shows this sighting, or nothing when only last-seen moved:
   // a periodic re-announcement is not news. A merge can cause more than one event
   // (see above): all go to the change log; the others are not returned.
+  // `heard`: the source heard the device now, so last-seen moves; false for what the
+  // daemon itself says of it meanwhile (unresponsive, in-use), which keeps last-seen.
   std::optional<DeviceEvent> upsert(const std::string& id, nlohmann::json doc,
-                                    const std::string& now_iso8601);
+                                    const std::string& now_iso8601, bool heard = true);
 
   // Removes the device (sighting) for `reason`; nothing happens (and no event) when it
   // is not there. Returns the event of the entry that showed it: `removed`, or `changed`

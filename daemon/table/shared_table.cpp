@@ -21,11 +21,11 @@ void SharedTable::remove_change_hook(HookId id) {
   hooks_.erase(id);
 }
 
-std::optional<DeviceEvent> SharedTable::upsert(const std::string& id, nlohmann::json doc) {
+std::optional<DeviceEvent> SharedTable::upsert(const std::string& id, nlohmann::json doc, bool heard) {
   std::optional<DeviceEvent> event;
   {
     std::lock_guard lock(mutex_);
-    event = table_.upsert(id, std::move(doc), now_iso8601());
+    event = table_.upsert(id, std::move(doc), now_iso8601(), heard);
     generation_ = table_.generation();
   }
   if (event) announce();

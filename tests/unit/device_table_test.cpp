@@ -40,6 +40,23 @@ TEST(DeviceTable, ReannouncementOnlyMovesLastSeen) {
   EXPECT_EQ(t.find("a")->json()["last-seen"], "T2");
 }
 
+// What the daemon says of a camera without hearing it (unresponsive once its lease
+// ran out, a client came) is a change, but last-seen stays when it was last heard.
+TEST(DeviceTable, AChangeNotHeardFromTheCameraKeepsLastSeen) {
+  DeviceTable t;
+  t.upsert("a", d455(), "T1");
+  json marked = d455();
+  marked["unresponsive"] = true;
+  auto ev = t.upsert("a", marked, "T2", /*heard=*/false);
+  ASSERT_TRUE(ev);
+  EXPECT_EQ(ev->type, EventType::changed);
+  EXPECT_EQ(t.find("a")->json()["unresponsive"], true);
+  EXPECT_EQ(t.find("a")->json()["last-seen"], "T1");
+  EXPECT_TRUE(t.upsert("a", d455(), "T3"));  // heard again: unmarked, and seen now
+  EXPECT_EQ(t.find("a")->json()["last-seen"], "T3");
+  EXPECT_FALSE(t.find("a")->json().contains("unresponsive"));
+}
+
 TEST(DeviceTable, ChangedFieldEmitsChangedAndKeepsFirstSeen) {
   DeviceTable t;
   t.upsert("a", d455(), "T1");
