@@ -243,3 +243,42 @@ TEST(EndpointBook, AFloodStaysWithinItsBounds) {
     EXPECT_EQ(book.endpoints().topics(), 0u);
   }
 }
+
+TEST(EndpointBook, RandomClientsOfTwoCamerasAreNeverCountedForTheOther) {
+  const std::string other_root = "realsense/D555_111222";  // shares kRoot's prefix up to its '_'
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    std::mt19937 rng(seed);
+    ParticipantBook book;
+    std::map<std::string, std::map<std::string, std::string>> used;  // participant -> endpoint -> root
+    for (int step = 0; step < 3000; ++step) {
+      const std::string participant = "010f0000.0000" + std::to_string(rng() % 30) + ".00000000.000001c1";
+      const std::string endpoint = participant.substr(0, 27) + std::to_string(rng() % 20);
+      const std::string& root = rng() % 2 ? kRoot : other_root;
+      if (rng() % 3) {
+        const bool reader = rng() % 2;
+        // A client's direction: it writes control and reads the rest.
+        const std::string topic = reader ? (rng() % 2 ? root + "/notification" : "rt/" + root + "_Depth")
+                                         : root + "/control";
+        if (book.endpoint_alive(participant, endpoint, topic, reader, "T") == EndpointRefusal::none &&
+            !used[participant].count(endpoint))
+          used[participant][endpoint] = root;
+      } else {
+        book.endpoint_gone(participant, endpoint);
+        used[participant].erase(endpoint);
+      }
+      for (const auto* r : {&kRoot, &other_root}) {
+        std::set<std::string> want;
+        for (const auto& [p, eps] : used)
+          for (const auto& [e, of] : eps)
+            if (of == *r) want.insert(p);
+        std::set<std::string> got;
+        for (const auto& c : book.clients(*r, {}).clients) got.insert(c.guid);
+        ASSERT_EQ(got, want) << "seed " << seed << " step " << step << " camera " << *r;
+      }
+    }
+    for (int p = 0; p < 30; ++p) book.gone("010f0000.0000" + std::to_string(p) + ".00000000.000001c1", "T");
+    EXPECT_TRUE(book.clients(kRoot, {}).clients.empty());
+    EXPECT_TRUE(book.clients(other_root, {}).clients.empty());
+    EXPECT_EQ(book.endpoints().total(), 0u);
+  }
+}
