@@ -112,29 +112,36 @@ TEST(StatusModel, DomainStatusRoundTripsWithEveryKey) {
   s.lost_servers = 1;
   s.writers = 9;
   s.writers_refused = {{"domain-writer-limit", 5}};
+  s.endpoints_refused = {{"topic-name-too-long", 3}};
   s.interfaces = {{"eth0", {"192.0.2.2"}}, {"eth1", {"10.1.0.1", "10.1.0.2"}}};
   s.network_changes = 2;
   s.network_changed_at = "2026-12-02T08:50:00.000Z";
   s.complete = true;
   const auto doc = rsd::model::to_json(s);
-  EXPECT_EQ(doc.size(), 17u);  // the spec's DomainStatus, every required key
+  EXPECT_EQ(doc.size(), 18u);  // the spec's DomainStatus, every required key
   EXPECT_EQ(doc["interfaces"][1]["addresses"][1], "10.1.0.2");
   EXPECT_EQ(doc["state"], "rebuilding");
   EXPECT_EQ(doc["lost-servers"], 1);
   EXPECT_EQ(doc["device-info-writers"], 9);
   EXPECT_EQ(doc["writers-refused"]["domain-writer-limit"], 5);
+  EXPECT_EQ(doc["endpoints-refused"]["topic-name-too-long"], 3);
   EXPECT_EQ(rsd::model::to_json(rsd::model::domain_status_from_json(doc)), doc);
   // A daemon from before the writer caps leaves their keys out: read as none.
   auto older = doc;
   older.erase("device-info-writers");
   older.erase("writers-refused");
+  older.erase("endpoints-refused");  // and from before the endpoint caps
   for (const char* key : {"interfaces", "network-changes", "network-changed-at"}) older.erase(key);
   const auto read = rsd::model::domain_status_from_json(older);
   EXPECT_EQ(read.writers, 0u);
   EXPECT_TRUE(read.writers_refused.empty());
+  EXPECT_TRUE(read.endpoints_refused.empty());
   EXPECT_TRUE(read.interfaces.empty());
   auto bad = doc;
   bad["interfaces"][0]["addresses"] = "192.0.2.2";
+  EXPECT_THROW(rsd::model::domain_status_from_json(bad), rsd::model::MalformedDocument);
+  bad = doc;
+  bad["endpoints-refused"] = 3;
   EXPECT_THROW(rsd::model::domain_status_from_json(bad), rsd::model::MalformedDocument);
 }
 
