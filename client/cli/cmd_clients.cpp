@@ -1,8 +1,12 @@
-// rs-discover clients: who uses a network camera (GET /v1/devices/{id}/clients), as a
-// table or the daemon's JSON.
+// rs-discover clients: who uses a camera. A network camera's clients come from the
+// daemon (GET /v1/devices/{id}/clients); a USB camera's are the processes holding its
+// device nodes, which only this host's /proc tells (usb_holders.hpp).
 #include "common.hpp"
+#include "usb_holders.hpp"
 
 #include <nlohmann/json.hpp>
+
+#include <algorithm>
 
 namespace rsdiscover {
 namespace {
@@ -13,17 +17,33 @@ std::string joined(const std::vector<std::string>& items) {
   return out.empty() ? "-" : out;
 }
 
-int run(const ParsedArgs& args) {
-  if (args.positional.size() != 1) throw UsageError("give exactly one device ID");
-  auto client = make_client(args);
-  const auto found = client.clients(args.positional[0]);
-  if (args.has("json")) {
-    std::printf("%s\n", nlohmann::json::parse(found.json).dump(output().color ? 2 : -1).c_str());
-    return kOk;
-  }
+bool has_source(const rsdiscovery::Device& d, const std::string& source) {
+  return d.source == source || std::find(d.sources.begin(), d.sources.end(), source) != d.sources.end();
+}
+
+// The camera's device nodes as the daemon found them in sysfs ("usb"."device-nodes").
+std::vector<std::string> device_nodes(const rsdiscovery::Device& d) {
+  std::vector<std::string> out;
+  const auto doc = nlohmann::json::parse(d.json, nullptr, false);
+  if (!doc.is_object() || !doc.contains("usb") || !doc["usb"].is_object()) return out;
+  const auto it = doc["usb"].find("device-nodes");
+  if (it == doc["usb"].end() || !it->is_array()) return out;
+  for (const auto& n : *it)
+    if (n.is_string()) out.push_back(n.get<std::string>());
+  return out;
+}
+
+nlohmann::json holders_json(const UsbHolders& found) {
+  auto list = nlohmann::json::array();
+  for (const auto& h : found.holders)
+    list.push_back({{"pid", h.pid}, {"uid", h.uid}, {"user", h.user}, {"command", h.command}, {"nodes", h.nodes}});
+  return list;
+}
+
+void print_dds_clients(const rsdiscovery::CameraClients& found) {
   if (found.clients.empty()) {
     std::printf("no client\n");
-    return kOk;
+    return;
   }
   Table table({"NAME", "ADDRESSES", "VENDOR", "SINCE", "STREAMS", "GUID"});
   for (const auto& c : found.clients) {
@@ -36,6 +56,61 @@ int run(const ParsedArgs& args) {
   for (const auto& [stream, readers] : found.streams)
     streaming.push_back(stream + " (" + std::to_string(readers) + (readers == 1 ? " reader)" : " readers)"));
   if (!streaming.empty()) std::printf("\nstreaming: %s\n", joined(streaming).c_str());
+}
+
+void print_usb_holders(const UsbHolders& found) {
+  if (found.holders.empty()) {
+    std::printf("no process holds it open\n");
+  } else {
+    Table table({"PID", "USER", "COMMAND", "NODES"});
+    for (const auto& h : found.holders) table.add({std::to_string(h.pid), h.user, h.command, joined(h.nodes)});
+    table.print(stdout);
+  }
+}
+
+void warn_unreadable(const UsbHolders& found) {
+  if (found.unreadable == 0) return;
+  std::fprintf(stderr,
+               "rs-discover: the open files of %zu process%s of other users could not be read: only yours "
+               "are shown; root sees every holder (sudo rs-discover clients ...)\n",
+               found.unreadable, found.unreadable == 1 ? "" : "es");
+}
+
+int run(const ParsedArgs& args) {
+  if (args.positional.size() != 1) throw UsageError("give exactly one device ID");
+  auto client = make_client(args);
+  const auto device = client.get_device(args.positional[0]);
+  const bool network = device.domain.has_value();
+  const bool usb = has_source(device, "usb");
+  if (!network && !usb) {  // remote-usb: its holders are processes of the host that has it
+    const auto host = rsdiscovery::sharing_host(device);
+    std::fprintf(stderr, "rs-discover: %s is a USB camera of host %s: run 'rs-discover clients %s' there\n",
+                 device.id.c_str(), host && !host->name.empty() ? host->name.c_str() : "(unnamed)", device.id.c_str());
+    return kNotFound;
+  }
+  std::optional<rsdiscovery::CameraClients> dds;
+  if (network) dds = client.clients(device.id);
+  std::optional<UsbHolders> holders;
+  if (usb) {
+    const auto nodes = device_nodes(device);
+    if (nodes.empty())
+      std::fprintf(stderr, "rs-discover: the daemon names no device node of %s yet: nothing to look for\n",
+                   device.id.c_str());
+    holders = find_usb_holders(nodes);
+  }
+  if (args.has("json")) {
+    auto doc = dds ? nlohmann::json::parse(dds->json) : nlohmann::json::object();
+    if (holders) {
+      doc["holders"] = holders_json(*holders);
+      doc["holders-complete"] = holders->unreadable == 0;
+    }
+    std::printf("%s\n", doc.dump(output().color ? 2 : -1).c_str());
+  } else {
+    if (dds) print_dds_clients(*dds);
+    if (dds && holders) std::printf("\nheld on USB:\n");
+    if (holders) print_usb_holders(*holders);
+  }
+  if (holders) warn_unreadable(*holders);
   return kOk;
 }
 
@@ -43,15 +118,22 @@ int run(const ParsedArgs& args) {
 
 const Command kClientsCommand = {
     "clients",
-    "show who uses a network camera",
+    "show who uses a camera",
     "clients [--json] ID",
-    "Show the programs using a network (realdds) camera: every DDS participant other than\n"
-    "the camera's server with a reader or writer on its topics, with its addresses, since\n"
-    "when, and the streams it reads; then the streams being streamed and their readers.\n"
-    "ID is an id from 'rs-discover list -q', or a serial or topic-root that names one\n"
-    "camera. The daemon sees this from DDS discovery, without asking the camera. A USB\n"
-    "camera is not one the daemon can tell about (exit 1). --json prints the daemon's\n"
-    "document.",
+    "Show who uses a camera. ID is an id from 'rs-discover list -q', or a serial or\n"
+    "topic-root that names one camera.\n"
+    "A network (realdds) camera: every DDS participant other than the camera's server with\n"
+    "a reader or writer on its topics, with its addresses, since when, and the streams it\n"
+    "reads; then the streams being streamed and their readers. The daemon sees this from\n"
+    "DDS discovery, without asking the camera.\n"
+    "A USB camera on this host: the processes holding one of its device nodes open\n"
+    "(/dev/bus/usb/BBB/DDD, its /dev/video*, /dev/media*, /dev/hidraw*), with their pid,\n"
+    "user and command line, found in /proc as fuser(1) finds them. Without root only your\n"
+    "own processes can be read: a note on stderr says how many were not.\n"
+    "Another host's USB camera (remote-usb): run it on that host (exit 1).\n"
+    "--json prints the daemon's document ({\"clients\": [...], \"streams\": {...}}), with\n"
+    "\"holders\": [{\"pid\", \"uid\", \"user\", \"command\", \"nodes\"}] and \"holders-complete\"\n"
+    "(false when some processes could not be read) for a USB camera.",
     {
         {"json", 'j', nullptr, "print the clients' JSON document"},
     },

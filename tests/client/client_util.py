@@ -39,12 +39,13 @@ class WatchProcess:
         return code
 
 
-def rs_discover(*args, endpoint=None, env=None, timeout=30):
-    """Runs the CLI; returns CompletedProcess with text stdout/stderr."""
+def rs_discover(*args, endpoint=None, env=None, timeout=30, wrap=()):
+    """Runs the CLI (after the command `wrap`, e.g. setpriv, when given); returns
+    CompletedProcess with text stdout/stderr."""
     full_env = dict(os.environ)
     full_env.pop("RS_DISCOVERY_ENDPOINT", None)
     full_env.update(env or {})
-    cmd = [CLI] + (["--endpoint", endpoint] if endpoint else []) + list(args)
+    cmd = list(wrap) + [CLI] + (["--endpoint", endpoint] if endpoint else []) + list(args)
     return subprocess.run(cmd, capture_output=True, text=True, env=full_env, timeout=timeout)
 
 
