@@ -9,7 +9,7 @@ namespace rsdiscover::doctor {
 namespace {
 
 int run(const ParsedArgs& args) {
-  if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
+  if (args.positional.size() > 1) throw UsageError("unexpected argument '" + args.positional[1] + "'");
   const double listen_s = args.get_seconds("listen", 3);
   if (listen_s > 60) throw UsageError("--listen wants at most 60 seconds");
   Report report;
@@ -37,6 +37,7 @@ int run(const ParsedArgs& args) {
     if (e.code() != rsdiscovery::ErrorCode::not_found) throw;  // an older daemon: no such route
   }
   check_expected(report, expected);
+  if (!args.positional.empty()) check_camera(report, client, args.positional[0]);
   const auto domains = client.domains();
   // Listened to before the daemon's participants are read, so that whoever is
   // heard here is in the daemon's answer too.
@@ -73,8 +74,8 @@ namespace rsdiscover {
 
 const Command kDoctorCommand = {
     "doctor",
-    "find out why a camera is missing",
-    "doctor [--json]",
+    "find out why a camera is missing or busy",
+    "doctor [--json] [--listen S] [ID]",
     "Check the usual reasons a camera is not listed, and say what to do, one line each:\n"
     "the DDS domains the daemon joined (cameras use 0 unless configured otherwise), who\n"
     "announces itself on the other domains (heard here on every domain's discovery port\n"
@@ -88,6 +89,10 @@ const Command kDoctorCommand = {
     "the expected cameras it does not list (first); and whether librealsense programs of\n"
     "this user (under sudo: of the invoking user and of root) will see the network cameras\n"
     "listed, from ~/.realsense-config.json (DDS off by default, domain, device-mask).\n"
+    "With ID (an id, serial or topic-root), first the camera itself: listed or why not,\n"
+    "and who uses it: a client streaming a network camera is named with its host, as a\n"
+    "new open-streams asking other profiles is refused while it streams (warn); the\n"
+    "processes holding a USB camera's device nodes (see 'rs-discover clients').\n"
     "'info' lines are worth knowing and explain none.\n"
     "Exit status: 0 nothing found explains a missing camera; 1 a line says 'warn' or\n"
     "'fail' (a likely cause); 2 usage error; 3 the daemon cannot be asked (not running,\n"

@@ -89,6 +89,10 @@ void check_librealsense(Report& r, const std::vector<rsdiscovery::Device>& devic
 int fix_librealsense(const std::vector<rsdiscovery::Device>& devices,
                      const std::vector<rsdiscovery::DomainStatus>& domains);
 
+// The camera `id` names (doctor ID; doctor_camera.cpp): listed or why not, and who uses
+// it (its DDS clients and what they stream; the processes holding a USB camera).
+void check_camera(Report& r, rsdiscovery::Client& client, const std::string& id);
+
 // ---- when the daemon cannot be asked (doctor_unreachable.cpp) -----------------------
 
 // What to do about `e`, by its cause; "" when there is nothing to add.

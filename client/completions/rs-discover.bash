@@ -64,7 +64,7 @@ _rs_discover() {
         return
     fi
     case "$command" in
-        get | describe | clients | history | wait)
+        get | describe | clients | history | wait | doctor)
             # ids and serials of the cameras there now
             COMPREPLY=($(compgen -W "$(_rs_discover_daemon -q) $(_rs_discover_daemon --format '{serial}')" -- "$cur"))
             ;;

@@ -205,6 +205,54 @@ def test_clients_of_a_usb_or_unknown_device(free_domain, daemon):
         pass
 
 
+def doctor(d, cam):
+    """(exit status, the camera's own findings) of `rs-discover doctor CAM`."""
+    r = subprocess.run([CLI, "--endpoint", "unix:" + d.socket, "doctor", "--json", "--listen", "0", cam],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode in (0, 1), (r.returncode, r.stdout, r.stderr)
+    return r.returncode, [f for f in json.loads(r.stdout)["findings"] if f["topic"] in ("camera", "in-use")]
+
+
+def test_doctor_names_the_client_streaming_a_camera(free_domain, daemon, realdds_server):
+    """doctor ID: a free camera is ok; one a client has open but does not stream is
+    worth knowing; one streamed to another client is the likely cause of a refused
+    open-streams, and the doctor names that client and where it runs."""
+    d = daemon([free_domain])
+    server = realdds_server(free_domain, [], name="d555-server")
+    x = d555("556111")
+    server.command(cmd="add", info=x, spec="d555")
+    xid = f"dds-{free_domain}-" + x["topic-root"].replace("/", ".")
+    wait_for(lambda: xid in d.device_ids(), 20, what="the camera")
+    _, found = doctor(d, x["serial"])
+    assert [(f["verdict"], f["topic"]) for f in found] == [("ok", "camera"), ("ok", "in-use")], found
+    assert "has no client: it is free" in found[1]["text"]
+
+    a = Client(free_domain, x, "my-robot-app")
+    wait_for(lambda: names(d, xid) == ["my-robot-app"], what="the device-only client")
+    _, found = doctor(d, xid)
+    assert [(f["verdict"], f["topic"]) for f in found] == [("ok", "camera"), ("info", "in-use")], found
+    assert "1 client ('my-robot-app'" in found[1]["text"] and "none streaming" in found[1]["text"]
+
+    b = Client(free_domain, x, "depth-viewer", streams=["Depth"])
+    wait_for(lambda: clients(d, xid)["streams"] == {"Depth": 1}, what="Depth streamed")
+    viewer = {c["name"]: c for c in clients(d, xid)["clients"]}["depth-viewer"]
+    status, found = doctor(d, x["serial"])
+    assert status == 1, found
+    [warned] = [f for f in found if f["verdict"] == "warn"]
+    assert warned["topic"] == "in-use", warned
+    assert f"streams Depth to 'depth-viewer' at {', '.join(viewer['addresses'])}" in warned["text"], warned
+    assert "a new open-streams asking other profiles of that stream is refused until it stops" in warned["text"]
+    assert "my-robot-app" not in warned["text"]  # only the client that streams is to blame
+
+    b.quit()
+    wait_for(lambda: clients(d, xid)["streams"] == {}, what="Depth no longer streamed")
+    _, found = doctor(d, xid)
+    assert [(f["verdict"], f["topic"]) for f in found] == [("ok", "camera"), ("info", "in-use")], found
+    a.quit()
+    status, found = doctor(d, "nobody")
+    assert status == 1 and found[0]["verdict"] == "fail" and "nobody" in found[0]["text"], found
+
+
 LIBREALSENSE_STREAMING = """
 import json, sys
 import pyrealsense2 as rs

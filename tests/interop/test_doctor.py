@@ -32,11 +32,11 @@ def net():
     hosts.destroy()
 
 
-def doctor(d, net=None):
+def doctor(d, net=None, *args):
     """(exit status, findings) of the doctor run beside the daemon (in its namespace)."""
     prefix = net.prefix(net.host) if net else []
-    r = subprocess.run(prefix + [CLI, "--endpoint", "unix:" + d.socket, "doctor", "--json"], capture_output=True,
-                       text=True, timeout=60)
+    r = subprocess.run(prefix + [CLI, "--endpoint", "unix:" + d.socket, "doctor", "--json", *args],
+                       capture_output=True, text=True, timeout=60)
     assert r.returncode in (0, 1), (r.returncode, r.stdout, r.stderr)
     return r.returncode, json.loads(r.stdout)["findings"]
 
@@ -58,6 +58,11 @@ def test_a_healthy_network_is_all_ok(free_domain, daemon, realdds_server, net):
     assert status == 0, findings
     assert said(findings, "ok", "network", "1 participant heard, 1 announcing")
     assert said(findings, "ok", "multicast", "rsdv0")
+    # Asked about the camera itself: listed, and free (no client).
+    status, findings = doctor(d, net, camera["serial"])
+    assert status == 0, findings
+    assert said(findings, "ok", "camera", camera["serial"], "is listed")
+    assert said(findings, "ok", "in-use", "has no client: it is free")
 
 
 def test_unicast_blocked_by_a_firewall(free_domain, daemon, realdds_server, net):

@@ -90,6 +90,12 @@ def test_a_process_holding_the_camera_is_found_and_nothing_when_none(bed, usb_da
         assert (h["pid"], h["uid"], h["user"], h["nodes"]) == (
             holder.proc.pid, 0, "root", ["/dev/bus/usb/002/002", "/dev/video0"])
         assert doc["holders-complete"] is True
+        # doctor ID says the same.
+        r = rs_discover("doctor", "--json", "--listen", "0", D455_SERIAL, endpoint=f"http://127.0.0.1:{d.port}",
+                        env=bed.env())
+        found = [f for f in json.loads(r.stdout)["findings"] if f["topic"] == "in-use"]
+        assert [f["verdict"] for f in found] == ["info"], found
+        assert f"is held open by pid {holder.proc.pid} (root: " in found[0]["text"], found
     finally:
         holder.close()
 

@@ -1,0 +1,99 @@
+// rs-discover doctor ID: the one camera a user asks about. Whether the daemon lists it
+// (or why it left), and who uses it: a network camera streamed to another client locks
+// the profiles of what it streams, so a new open-streams asking others is refused; a
+// USB camera's holders are the processes with its nodes open (usb_holders.hpp).
+#include "doctor.hpp"
+#include "usb_holders.hpp"
+
+#include <algorithm>
+
+namespace rsdiscover::doctor {
+namespace {
+
+std::string joined(const std::vector<std::string>& items) {
+  std::string out;
+  for (const auto& s : items) out += (out.empty() ? "" : ", ") + s;
+  return out;
+}
+
+std::string camera_name(const rsdiscovery::Device& d) {
+  std::string out = d.name.empty() ? d.id : d.name;
+  if (!d.serial.empty()) out += " " + d.serial;
+  return out;
+}
+
+// "depth-viewer (viewer.py@lab-2) at 10.0.0.7": who a client is and where it runs.
+std::string client_name(const rsdiscovery::CameraClient& c) {
+  std::string out = "'" + (c.name.empty() ? c.guid : c.name) + "'";
+  if (!c.process.empty() || !c.host.empty())
+    out += " (" + c.process + (c.host.empty() ? "" : (c.process.empty() ? "" : "@") + c.host) + ")";
+  if (!c.addresses.empty()) out += " at " + joined(c.addresses);
+  return out;
+}
+
+void check_dds_clients(Report& r, rsdiscovery::Client& client, const rsdiscovery::Device& d) {
+  const auto found = client.clients(d.id);
+  bool streamed = false;
+  for (const auto& c : found.clients) {
+    if (c.streams.empty()) continue;
+    streamed = true;
+    // realdds commits a sensor's profiles when it starts streaming and keeps them until
+    // its last reader goes (dds-stream-sensor-bridge.cpp; the D555's own server answers
+    // "Sensor is streaming"): reading the same profiles beside it works, others do not.
+    r.add(Verdict::warn, "in-use",
+          camera_name(d) + " streams " + joined(c.streams) + " to " + client_name(c) +
+              ": a new open-streams asking other profiles of " + (c.streams.size() == 1 ? "that stream" : "those streams") +
+              " is refused until it stops; open the same profiles, or stop that client first");
+  }
+  if (streamed) return;
+  if (!found.clients.empty()) {
+    std::vector<std::string> who;
+    for (const auto& c : found.clients) who.push_back(client_name(c));
+    r.add(Verdict::info, "in-use",
+          camera_name(d) + " has " + std::to_string(who.size()) + (who.size() == 1 ? " client" : " clients") + " (" +
+              joined(who) + "), none streaming: any profile can be opened");
+    return;
+  }
+  r.add(Verdict::ok, "in-use", camera_name(d) + " has no client: it is free to open and stream");
+}
+
+void check_usb_holders(Report& r, const rsdiscovery::Device& d) {
+  std::vector<std::string> nodes;
+  const auto doc = nlohmann::json::parse(d.json, nullptr, false);
+  if (doc.is_object() && doc.contains("usb") && doc["usb"].is_object())
+    if (auto it = doc["usb"].find("device-nodes"); it != doc["usb"].end() && it->is_array())
+      for (const auto& n : *it)
+        if (n.is_string()) nodes.push_back(n.get<std::string>());
+  const auto found = find_usb_holders(nodes);
+  for (const auto& h : found.holders)
+    r.add(Verdict::info, "in-use",
+          camera_name(d) + " is held open by pid " + std::to_string(h.pid) + " (" + h.user + ": " + h.command +
+              ") through " + joined(h.nodes) +
+              ": while it streams, another program's open of it fails with 'Device or resource busy'");
+  const std::string unread = found.unreadable == 0 ? ""
+                                                   : " among the processes readable here (" +
+                                                         std::to_string(found.unreadable) +
+                                                         " of other users were not: run as root to see all)";
+  if (found.holders.empty())
+    r.add(found.unreadable == 0 ? Verdict::ok : Verdict::info, "in-use",
+          camera_name(d) + " is held open by no process" + unread);
+}
+
+}  // namespace
+
+void check_camera(Report& r, rsdiscovery::Client& client, const std::string& id) {
+  rsdiscovery::Device d;
+  try {
+    d = client.get_device(id);
+  } catch (const rsdiscovery::Error& e) {
+    if (e.code() != rsdiscovery::ErrorCode::not_found) throw;
+    r.add(Verdict::fail, "camera", std::string(e.what()) + ": the lines below say why cameras go missing");
+    return;
+  }
+  r.add(Verdict::ok, "camera", camera_name(d) + " is listed as " + d.id + " (" + d.state + ")");
+  if (d.domain) check_dds_clients(r, client, d);
+  const bool usb = d.source == "usb" || std::find(d.sources.begin(), d.sources.end(), "usb") != d.sources.end();
+  if (usb) check_usb_holders(r, d);
+}
+
+}  // namespace rsdiscover::doctor
