@@ -133,7 +133,7 @@ const Command kListCommand = {
     "list",
     "list the cameras the daemon knows now",
     "list [--json | -q | -w | --format TEMPLATE] [--no-headers] [-d N]... [-p LINE] [-s dds|usb|remote-usb]\n"
-    "       [--serial SERIAL] [-n TEXT] [-a ADDR] [--host NAME] [--wait N [--timeout S]]\n"
+    "       [--serial SERIAL] [-n TEXT] [-a ADDR] [--host NAME] [--in-use | --free] [--wait N [--timeout S]]\n"
     "       [--no-wait-complete | --complete-timeout S]",
     "List the cameras rs-discoveryd knows now: one line each, with where it is (DDS domain or\n"
     "USB port), its network address and how long it has been seen. With --wait, first wait\n"

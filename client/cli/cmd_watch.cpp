@@ -164,13 +164,13 @@ void print_event(const rsdiscovery::Event& e, bool json, bool initial, const std
 int run(const ParsedArgs& args) {
   if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
   rsdiscovery::WatchOptions options;
-  options.filter = filter_from(args);
+  options.filter(filter_from(args));
   // Feedback on stderr while the daemon is away (stdout stays events only): one line
   // when it goes, one when it is back, however many attempts lie between; the first
   // connection is no news. Runs on the library's thread.
   std::atomic<bool> ever_lost{false};
-  options.on_status = [&ever_lost, lost = false,
-                       since = std::chrono::steady_clock::time_point()](const rsdiscovery::WatchStatus& s) mutable {
+  options.on_status([&ever_lost, lost = false,
+                     since = std::chrono::steady_clock::time_point()](const rsdiscovery::WatchStatus& s) mutable {
     if (s.connected == !lost) return;  // no change: connected, or one more failed attempt
     lost = !s.connected;
     if (lost) {
@@ -183,14 +183,14 @@ int run(const ParsedArgs& args) {
       std::fprintf(stderr, "rs-discover: %s connected again after %.1f s%s\n", clock_now().c_str(), away,
                    s.message.empty() ? "" : (": " + s.message).c_str());
     }
-  };
-  options.initial = args.has("initial");
+  });
+  options.initial(args.has("initial"));
   if (args.has("last-event-id")) {
     const std::string text = args.get("last-event-id");
     char* end = nullptr;
     unsigned long long v = std::strtoull(text.c_str(), &end, 10);
     if (text.empty() || *end) throw UsageError("--last-event-id wants a number, not '" + text + "'");
-    options.last_event_id = v;
+    options.last_event_id(v);
   }
   int count = args.get_int("count", 0, 0, 1000000000);
   bool has_timeout = args.has("timeout");
@@ -233,7 +233,7 @@ int run(const ParsedArgs& args) {
   int seen = 0;
   // --initial's listing: the synthetic events before the first one the daemon sent
   // and before any outage (a re-list after one is reported as "re-listed").
-  bool listing = options.initial;
+  bool listing = options.initial();
   while (count == 0 || seen < count) {
     std::optional<rsdiscovery::Event> e;
     if (has_timeout) {
@@ -267,7 +267,7 @@ const Command kWatchCommand = {
     "watch",
     "print the changes as they happen",
     "watch [--json] [--initial] [-d N]... [-p LINE] [-s dds|usb|remote-usb] [--serial SERIAL] [-n TEXT]\n"
-    "       [-a ADDR] [--host NAME] [-c N] [-t S]",
+    "       [-a ADDR] [--host NAME] [--in-use | --free] [-c N] [-t S]",
     "Print one line per change of the device table (added, changed, removed) until interrupted,\n"
     "with the local date and time; a 'changed' line says what changed (fw-version 5.16.0.1 ->\n"
     "5.16.1.0, now served by NAME (ADDRESS), entered recovery mode). With --initial the\n"

@@ -61,6 +61,10 @@ inline constexpr OptionSpec kAddressOption = {"address", 'a', "ADDR",
                                               "only network cameras whose server has this address"};
 inline constexpr OptionSpec kHostOption = {
     "host", 0, "NAME", "only the USB cameras the daemon on host NAME shares (remote-usb; any case)"};
+inline constexpr OptionSpec kInUseOption = {
+    "in-use", 0, nullptr, "only network cameras a client uses now ('rs-discover clients ID' says who)"};
+inline constexpr OptionSpec kFreeOption = {"free", 0, nullptr,
+                                           "only cameras no network client uses (USB cameras too)"};
 // `own` with the device filters above in front: list's and watch's options.
 std::vector<OptionSpec> with_device_filters(std::vector<OptionSpec> own);
 inline constexpr OptionSpec kNoHeadersOption = {"no-headers", 'H', nullptr, "print the table without its header line"};

@@ -21,13 +21,13 @@ rsdiscovery::ClientOptions client_options(const ParsedArgs& args) {
   if (args.has("no-wait-complete") && args.has("complete-timeout"))
     throw UsageError("--no-wait-complete and --complete-timeout exclude each other");
   if (args.has("no-wait-complete")) {
-    options.complete_timeout = std::chrono::milliseconds::zero();
+    options.complete_timeout(std::chrono::milliseconds::zero());
   } else if (args.has("complete-timeout")) {
-    options.complete_timeout =
-        std::chrono::milliseconds(static_cast<long long>(args.get_seconds("complete-timeout", 0) * 1000));
+    options.complete_timeout(
+        std::chrono::milliseconds(static_cast<long long>(args.get_seconds("complete-timeout", 0) * 1000)));
   }
   // A busy daemon is waited for as it asks; the user sees why the command pauses.
-  options.on_busy = [](const std::string& why) { std::fprintf(stderr, "rs-discover: %s\n", why.c_str()); };
+  options.on_busy([](const std::string& why) { std::fprintf(stderr, "rs-discover: %s\n", why.c_str()); });
   return options;
 }
 
@@ -62,7 +62,7 @@ rsdiscovery::Client make_client(const ParsedArgs& args) {
   const std::string why = err == ECONNREFUSED ? "nothing listens on " + socket.path : "no socket at " + socket.path;
   try {
     auto quick = options;
-    quick.connect_timeout = std::chrono::milliseconds(500);
+    quick.connect_timeout(std::chrono::milliseconds(500));
     rsdiscovery::Client client(http, quick);
     client.health();  // it is rs-discoveryd that answers there
     std::fprintf(stderr, "rs-discover: %s; using %s\n", why.c_str(), http.to_string().c_str());
@@ -79,22 +79,24 @@ rsdiscovery::Client make_client(const ParsedArgs& args) {
 
 rsdiscovery::DeviceFilter filter_from(const ParsedArgs& args) {
   rsdiscovery::DeviceFilter f;
-  f.domains = args.get_ints("domain", 0, 232);
-  f.serial = args.get("serial");
-  f.name = args.get("name");
-  f.address = args.get("address");
-  f.product_line = args.get("product-line");
-  f.source = args.get("source");
-  if (!f.source.empty() && f.source != "dds" && f.source != "usb" && f.source != "remote-usb")
-    throw UsageError("--source wants dds, usb or remote-usb, not '" + f.source + "'");
+  for (int d : args.get_ints("domain", 0, 232)) f.domain(d);
+  f.serial(args.get("serial")).name(args.get("name")).address(args.get("address"));
+  f.product_line(args.get("product-line"));
+  const std::string source = args.get("source");
+  if (!source.empty() && source != "dds" && source != "usb" && source != "remote-usb")
+    throw UsageError("--source wants dds, usb or remote-usb, not '" + source + "'");
+  f.source(source);
   // --host: another host's cameras by its name; the daemon matches it (?host=) and
   // selects remote-usb with it, so another source could only answer nothing.
   if (args.has("host")) {
-    f.host = args.get("host");
-    if (f.host.empty()) throw UsageError("--host wants a host name");
-    if (!f.source.empty() && f.source != "remote-usb")
-      throw UsageError("--host selects another host's cameras (remote-usb), not --source " + f.source);
+    if (args.get("host").empty()) throw UsageError("--host wants a host name");
+    if (!source.empty() && source != "remote-usb")
+      throw UsageError("--host selects another host's cameras (remote-usb), not --source " + source);
+    f.host(args.get("host"));
   }
+  if (args.has("in-use") && args.has("free")) throw UsageError("--in-use and --free exclude each other");
+  if (args.has("in-use")) f.in_use(true);
+  if (args.has("free")) f.in_use(false);
   return f;
 }
 

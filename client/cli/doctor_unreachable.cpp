@@ -106,9 +106,9 @@ bool answers(const std::string& endpoint) {
   if (endpoint.empty()) return false;
   try {
     rsdiscovery::ClientOptions options;
-    options.connect_timeout = std::chrono::milliseconds(1000);
-    options.request_timeout = std::chrono::milliseconds(2000);
-    options.complete_timeout = std::chrono::milliseconds(0);
+    options.connect_timeout(std::chrono::milliseconds(1000))
+        .request_timeout(std::chrono::milliseconds(2000))
+        .complete_timeout(std::chrono::milliseconds(0));
     rsdiscovery::Client(endpoint, options).health();
     return true;
   } catch (const rsdiscovery::Error&) {

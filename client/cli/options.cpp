@@ -23,7 +23,7 @@ const std::vector<OptionSpec> kCommonOptions = {
 
 std::vector<OptionSpec> with_device_filters(std::vector<OptionSpec> own) {
   own.insert(own.begin(), {kDomainOption, kProductLineOption, kSourceOption, kSerialOption, kNameOption, kAddressOption,
-                            kHostOption});
+                            kHostOption, kInUseOption, kFreeOption});
   return own;
 }
 

@@ -37,7 +37,7 @@ struct Client::Impl {
 
   // The moment until which an answer from an incomplete table is asked again.
   Clock::time_point complete_deadline() const {
-    return Clock::now() + std::max(options.complete_timeout, std::chrono::milliseconds::zero());
+    return Clock::now() + std::max(options.complete_timeout(), std::chrono::milliseconds::zero());
   }
 
   // GET `path` again until the answer says the table is complete, or `deadline`.
@@ -212,8 +212,8 @@ Description Client::describe(const std::string& id, std::chrono::milliseconds ti
       }
       const auto again = Clock::now() + std::chrono::seconds(seconds);
       if (again < deadline) {
-        if (impl_->options.on_busy)
-          impl_->options.on_busy("rs-discoveryd at " + impl_->endpoint.to_string() + " cannot describe '" + id +
+        if (impl_->options.on_busy())
+          impl_->options.on_busy()("rs-discoveryd at " + impl_->endpoint.to_string() + " cannot describe '" + id +
                                  "' yet: " + (message.empty() ? "HTTP 503" : message) + "; asking again in " +
                                  std::to_string(seconds) + " s");
         std::this_thread::sleep_until(again);
@@ -302,7 +302,7 @@ Watch Client::watch(WatchOptions options) {
 }
 
 DeviceView Client::view(WatchOptions options) {
-  options.initial = false;  // nothing to report: the view is what is kept
+  options.initial(false);  // nothing to report: the view is what is kept
   auto core = std::make_shared<WatchCore>(impl_->endpoint, impl_->options, std::move(options));
   core->start_view();
   return DeviceView(std::move(core));
@@ -332,10 +332,9 @@ std::optional<std::vector<Device>> Client::wait_until(
   // Fast path: it may hold already, and one request is much cheaper than a watch.
   if (auto now = impl_->list(filter, complete_by).devices; predicate(now)) return now;
   WatchOptions options;
-  options.filter = filter;
-  options.complete_timeout =
+  options.filter(filter).complete_timeout(
       std::max(std::chrono::duration_cast<std::chrono::milliseconds>(complete_by - Clock::now()),
-               std::chrono::milliseconds::zero());
+               std::chrono::milliseconds::zero()));
   Watch w = watch(options);
   for (;;) {
     auto devices = w.devices();

@@ -341,14 +341,14 @@ std::string devices_path(const DeviceFilter& filter) {
     path += percent_encode(value);
     sep = '&';
   };
-  if (filter.domain) add("domain", std::to_string(*filter.domain));
-  for (int d : filter.domains) add("domain", std::to_string(d));
-  if (!filter.product_line.empty()) add("product-line", filter.product_line);
-  if (!filter.source.empty()) add("source", filter.source);
-  if (!filter.serial.empty()) add("serial", filter.serial);
-  if (!filter.name.empty()) add("name", filter.name);
-  if (!filter.address.empty()) add("address", filter.address);
-  if (!filter.host.empty()) add("host", filter.host);
+  for (int d : filter.domains()) add("domain", std::to_string(d));
+  if (!filter.product_line().empty()) add("product-line", filter.product_line());
+  if (!filter.source().empty()) add("source", filter.source());
+  if (!filter.serial().empty()) add("serial", filter.serial());
+  if (!filter.name().empty()) add("name", filter.name());
+  if (!filter.address().empty()) add("address", filter.address());
+  if (!filter.host().empty()) add("host", filter.host());
+  if (const auto used = filter.in_use()) add("in-use", *used ? "true" : "false");
   return path;
 }
 

@@ -83,8 +83,8 @@ Reply Transport::get(const std::string& path, std::optional<std::chrono::millise
     }
     const auto again = Clock::now() + std::chrono::seconds(seconds);
     if (again > busy_until) return reply;
-    if (options_.on_busy)
-      options_.on_busy(std::string(status_error(path, reply).what()) + "; asking again in " +
+    if (options_.on_busy())
+      options_.on_busy()(std::string(status_error(path, reply).what()) + "; asking again in " +
                        std::to_string(seconds) + " s");
     while (Clock::now() < again) {  // in slices, so cancel() is not kept waiting
       if (cancelled_) throw Error(ErrorCode::cancelled, "cancelled");
@@ -96,7 +96,7 @@ Reply Transport::get(const std::string& path, std::optional<std::chrono::millise
 Reply Transport::get_once(const std::string& path, std::optional<std::chrono::milliseconds> timeout,
                           const std::string& if_none_match) {
   if (cancelled_) throw Error(ErrorCode::cancelled, "cancelled");
-  const auto read_timeout = timeout.value_or(options_.request_timeout);
+  const auto read_timeout = timeout.value_or(options_.request_timeout());
   std::vector<std::pair<std::string, std::string>> extra;
   if (!if_none_match.empty()) extra.emplace_back("If-None-Match", if_none_match);
   const std::string request = get_request(path, "application/json", extra);
@@ -104,7 +104,7 @@ Reply Transport::get_once(const std::string& path, std::optional<std::chrono::mi
     const bool reused = kept_ != nullptr;
     if (!kept_) {
       auto fresh = std::make_unique<Connection>();
-      fresh->fd = open_socket(endpoint_, options_.connect_timeout);
+      fresh->fd = open_socket(endpoint_, options_.connect_timeout());
       if (fresh->fd < 0) throw diagnose_connect(endpoint_);
       std::lock_guard lock(mutex_);
       kept_ = std::move(fresh);
@@ -250,7 +250,7 @@ void Transport::stream(const std::string& path, const std::string& last_event_id
                        const std::function<bool(const char*, std::size_t)>& on_data,
                        std::chrono::milliseconds idle_timeout) {
   auto c = std::make_shared<Connection>();
-  c->fd = open_socket(endpoint_, options_.connect_timeout);
+  c->fd = open_socket(endpoint_, options_.connect_timeout());
   if (c->fd < 0) {
     if (cancelled_) return;
     throw diagnose_connect(endpoint_);

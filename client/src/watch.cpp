@@ -19,7 +19,7 @@ WatchCore::WatchCore(Endpoint endpoint, ClientOptions client_options, WatchOptio
     : stream_(endpoint, client_options),
       lister_(endpoint, client_options),
       options_(std::move(options)),
-      last_id_(options_.last_event_id) {}
+      last_id_(options_.last_event_id()) {}
 
 WatchCore::~WatchCore() { stop(); }
 
@@ -30,11 +30,11 @@ void WatchCore::start_pull() {
       queue_.push_back(std::move(e));
     }
     cv_.notify_all();
-  }, options_.on_status, {});
+  }, options_.on_status(), {});
 }
 
 void WatchCore::start_view() {
-  start([](Event&&) {}, options_.on_status, {});
+  start([](Event&&) {}, options_.on_status(), {});
 }
 
 void WatchCore::start(Sink sink, StatusSink status, EndSink on_end) {
@@ -146,7 +146,7 @@ void WatchCore::run() {
     try {
       connect_once(connected);
       if (stop_) break;
-      if (!options_.reconnect)
+      if (!options_.reconnect())
         throw Error(ErrorCode::not_running, "rs-discoveryd at " + stream_.endpoint().to_string() +
                                                 " ended the event stream");
       status(false, "the event stream ended; reconnecting");
@@ -158,7 +158,7 @@ void WatchCore::run() {
       }
       bool transient = e.code() == ErrorCode::not_running || e.code() == ErrorCode::timeout ||
                        (e.code() == ErrorCode::http_error && e.http_status() >= 500);
-      if (!transient || !options_.reconnect) {
+      if (!transient || !options_.reconnect()) {
         error = std::current_exception();
         break;
       }
@@ -174,7 +174,7 @@ void WatchCore::run() {
     if (connected) delay = 100ms;
     std::unique_lock lock(mutex_);
     cv_.wait_for(lock, delay, [this] { return stop_.load(); });
-    delay = std::min(delay * 2, std::max(options_.max_reconnect_delay, 100ms));
+    delay = std::min(delay * 2, std::max(options_.max_reconnect_delay(), 100ms));
   }
   if (!error && status_error_) error = status_error_;
   if (!first_done_ && error) {
@@ -204,7 +204,7 @@ void WatchCore::connect_once(bool& connected) {
   if (last.empty()) {
     // No point to resume from: take the table as it is now, and stream from the
     // generation the list was taken at, so nothing in between is missed.
-    auto generation = relist(view_complete_ || options_.initial);
+    auto generation = relist(view_complete_ || options_.initial());
     if (generation) {
       last = std::to_string(*generation);
     } else {
@@ -212,15 +212,15 @@ void WatchCore::connect_once(bool& connected) {
     }
   }
   std::string path = "/v1/events";
-  if (auto q = detail::devices_path(options_.filter).find('?'); q != std::string::npos)
-    path += detail::devices_path(options_.filter).substr(q);
+  if (auto q = detail::devices_path(options_.filter()).find('?'); q != std::string::npos)
+    path += detail::devices_path(options_.filter()).substr(q);
   stream_.stream(
       path, last,
       [&] {
         try {
           connected = true;
           status(true, "connected to " + stream_.endpoint().to_string());
-          if (list_on_open) relist(view_complete_ || options_.initial);
+          if (list_on_open) relist(view_complete_ || options_.initial());
           first_result(nullptr);
           return !stop_;
         } catch (...) {
@@ -237,7 +237,7 @@ void WatchCore::connect_once(bool& connected) {
           return false;
         }
       },
-      options_.idle_timeout);
+      options_.idle_timeout());
   if (inner) std::rethrow_exception(inner);
 }
 
@@ -324,9 +324,9 @@ void WatchCore::apply(Event::Type type, json doc, std::uint64_t id, bool synthet
 
 json WatchCore::list_complete() {
   const auto deadline =
-      std::chrono::steady_clock::now() + std::max(options_.complete_timeout, std::chrono::milliseconds::zero());
+      std::chrono::steady_clock::now() + std::max(options_.complete_timeout(), std::chrono::milliseconds::zero());
   for (;;) {
-    json reply = lister_.get_json(detail::devices_path(options_.filter));
+    json reply = lister_.get_json(detail::devices_path(options_.filter()));
     // A daemon that has just (re)started answers at once, from a table that lacks
     // the cameras it has not heard from yet: compared with the view, that list would
     // report them removed, then added again a moment later. Only a complete list
@@ -349,7 +349,7 @@ std::optional<std::uint64_t> WatchCore::relist(bool emit) {
   // list is the starting point: what the daemon has now, with every later addition
   // still to come as an event; waiting there would fold cameras that arrive meanwhile
   // into the starting point, unreported.
-  json reply = compare ? list_complete() : lister_.get_json(detail::devices_path(options_.filter));
+  json reply = compare ? list_complete() : lister_.get_json(detail::devices_path(options_.filter()));
   std::optional<std::uint64_t> generation;
   if (auto g = reply.find("generation"); g != reply.end() && g->is_number_unsigned())
     generation = g->get<std::uint64_t>();

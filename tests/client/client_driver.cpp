@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
     rsdiscovery::Client client(argv[2]);
     if (mode == "subscribe") {
       rsdiscovery::WatchOptions options;
-      options.initial = true;
+      options.initial(true);
       auto sub = client.watch(
           [](const rsdiscovery::Event& e) {
             line(std::string("{\"event\":\"") + rsdiscovery::to_string(e.type) + "\",\"id\":" + std::to_string(e.id) +

@@ -66,7 +66,7 @@ def _build_and_install(tree, prefix):
         r = subprocess.run([str(prefix / path), "--version"], capture_output=True, text=True, timeout=30)
         assert r.returncode == 0 and "0.1.0" in r.stdout + r.stderr, (path, r.stdout, r.stderr)
     assert (prefix / "share" / "man" / "man1" / "rs-discover.1").is_file()
-    assert list(prefix.glob("lib*/**/librsdiscovery.so.0*")) and list(prefix.glob("lib*/**/librsdiscovery.a"))
+    assert list(prefix.glob("lib*/**/librsdiscovery.so.1*")) and list(prefix.glob("lib*/**/librsdiscovery.a"))
 
 
 @pytest.mark.skipif(not shutil.which("dpkg-query"), reason="Debian only")

@@ -45,7 +45,7 @@ def test_installed_files(prefix):
     text = re.sub(r".\x08", "", r.stdout)  # overstrike bold
     assert "EXIT STATUS" in text and "RS_DISCOVERY_ENDPOINT" in text and not r.stderr
     lib = libdir(prefix)
-    assert glob.glob(os.path.join(lib, "librsdiscovery.so.0*")) and os.path.exists(os.path.join(lib, "librsdiscovery.a"))
+    assert glob.glob(os.path.join(lib, "librsdiscovery.so.1*")) and os.path.exists(os.path.join(lib, "librsdiscovery.a"))
     # Only the public API is exported from the shared library.
     syms = run(["nm", "-D", "--defined-only", "-C", os.path.join(lib, "librsdiscovery.so")]).stdout
     assert "rsdiscovery::Client::list_devices" in syms

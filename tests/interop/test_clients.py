@@ -142,6 +142,13 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     listed = subprocess.run(cli + ["list"], capture_output=True, text=True, timeout=10).stdout
     assert [ln for ln in listed.splitlines() if x["serial"] in ln and "in use" in ln]
     assert not [ln for ln in listed.splitlines() if y["serial"] in ln and "in use" in ln]
+    # The C++ library's filter (DeviceFilter::in_use), through the CLI built on it.
+    in_use = subprocess.run(cli + ["list", "-q", "--in-use"], capture_output=True, text=True, timeout=10)
+    assert (in_use.returncode, in_use.stdout.split()) == (0, [xid]), in_use.stderr
+    free = subprocess.run(cli + ["list", "-q", "--free"], capture_output=True, text=True, timeout=10).stdout.split()
+    assert yid in free and xid not in free, free
+    both = subprocess.run(cli + ["list", "--in-use", "--free"], capture_output=True, text=True, timeout=10)
+    assert both.returncode == 2 and "exclude each other" in both.stderr, both.stderr
     py = rsdiscovery.Client("unix:" + d.socket).clients(xid)
     assert [c.name for c in py.clients] == ["my-robot-app"] and py.clients[0].streams == () and py.streams == {}
     assert [dev.id for dev in rsdiscovery.Client("unix:" + d.socket).list_devices(in_use=True)] == [xid]

@@ -15,7 +15,7 @@ import pytest
 from conftest import device_info, free_port, wait_for
 
 SOURCE_DIR = os.environ.get("RSD_SOURCE_DIR", os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..")))
-PACKAGES = ["rs-discoveryd", "rs-discover", "librsdiscovery0", "librsdiscovery-dev", "python3-rsdiscovery"]
+PACKAGES = ["rs-discoveryd", "rs-discover", "librsdiscovery1", "librsdiscovery-dev", "python3-rsdiscovery"]
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="installs packages: needs root")
 
@@ -76,7 +76,7 @@ def test_install_run_query_remove_purge(debs, domains, realdds_server, tmp_path)
             assert os.path.exists(path), path
         conffiles = sh("dpkg-query", "-W", "-f=${Conffiles}", "rs-discoveryd").stdout
         assert "/etc/rs-discoveryd/config.json" in conffiles
-        assert any(p.endswith("librsdiscovery.so.0") for p in owned["librsdiscovery0"])
+        assert any(p.endswith("librsdiscovery.so.1") for p in owned["librsdiscovery1"])
         # postinst: the system user exists, the units are enabled (no PID 1 to start them).
         user = pwd.getpwnam("rs-discoveryd")
         assert user.pw_uid < 1000 and user.pw_shell.endswith("nologin")

@@ -43,7 +43,7 @@ BUILD_TOOLS = ["build-essential", "debhelper", "dpkg-dev", "fakeroot", "git", "c
 # What the booted system gets: this tree's daemon, CLI and both client libraries
 # (the -dev package is checked on the host, by tests/packaging), and the previous
 # release's packages to upgrade from.
-CURRENT = ["rs-discoveryd", "rs-discover", "librsdiscovery0", "python3-rsdiscovery"]
+CURRENT = ["rs-discoveryd", "rs-discover", "librsdiscovery1", "python3-rsdiscovery"]
 PREVIOUS = ["rs-discoveryd", "librsdiscovery0"]
 
 

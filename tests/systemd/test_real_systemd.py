@@ -515,7 +515,7 @@ def test_boot_with_the_packages_installed(system):
 def test_remove_keeps_the_cli_then_purge_leaves_nothing(system):
     c = system
     c.run("apt-get", "remove", "-y", "rs-discoveryd", timeout=300)
-    for p in ("rs-discover", "librsdiscovery0", "python3-rsdiscovery"):  # installable without the daemon
+    for p in ("rs-discover", "librsdiscovery1", "python3-rsdiscovery"):  # installable without the daemon
         assert c.run("dpkg-query", "-W", "-f=${db:Status-Status}", p).stdout == "installed", p
     assert c.run("systemctl", "is-active", SERVICE, SOCKET, check=False).stdout.split() == ["inactive", "inactive"]
     r = c.run("rs-discover", "--endpoint", "http://127.0.0.1:8035", "list", check=False)

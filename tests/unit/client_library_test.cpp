@@ -485,21 +485,56 @@ TEST(Device, CompleteUnlessTheDocumentSaysOtherwise) {
 TEST(Filter, BuildsTheQueryWithEncoding) {
   DeviceFilter f;
   EXPECT_EQ(detail::devices_path(f), "/v1/devices");
-  f.domain = 7;
-  f.product_line = "D4 00&x";
-  f.source = "usb";
+  f.domain(7).product_line("D4 00&x").source("usb");
   EXPECT_EQ(detail::devices_path(f), "/v1/devices?domain=7&product-line=D4%2000%26x&source=usb");
   DeviceFilter more;
-  more.domains = {1, 2};
-  more.serial = "ab12";
-  more.name = "D455 ";
-  more.address = "192.0.2.2";
+  more.domain(1).domain(2).serial("ab12").name("D455 ").address("192.0.2.2");
   EXPECT_EQ(detail::devices_path(more), "/v1/devices?domain=1&domain=2&serial=ab12&name=D455%20&address=192.0.2.2");
+  EXPECT_EQ(detail::devices_path(DeviceFilter().in_use(true)), "/v1/devices?in-use=true");
+  EXPECT_EQ(detail::devices_path(DeviceFilter().in_use(false)), "/v1/devices?in-use=false");
+}
+
+// Opaque values behave as values: a copy is its own, a moved-from one reads as new
+// and takes settings again, and the defaults are the documented ones.
+TEST(Options, CopiesAreIndependentAndMovedFromReadsAsNew) {
+  DeviceFilter a;
+  a.serial("x").domain(3);
+  DeviceFilter b = a;
+  b.serial("y");
+  EXPECT_EQ(a.serial(), "x");
+  EXPECT_EQ(b.serial(), "y");
+  EXPECT_EQ(b.domains(), std::vector<int>{3});
+  DeviceFilter c = std::move(a);
+  EXPECT_EQ(c.serial(), "x");
+  EXPECT_EQ(a.serial(), "");  // NOLINT(bugprone-use-after-move): reads as new, on purpose
+  a.name("again");
+  EXPECT_EQ(a.name(), "again");
+  b = c;
+  EXPECT_EQ(b.serial(), "x");
+  EXPECT_FALSE(DeviceFilter().in_use());
+
+  WatchOptions w;
+  EXPECT_FALSE(w.initial());
+  EXPECT_TRUE(w.reconnect());
+  EXPECT_EQ(w.max_reconnect_delay(), std::chrono::milliseconds(2000));
+  EXPECT_EQ(w.idle_timeout(), std::chrono::milliseconds(60000));
+  EXPECT_EQ(w.complete_timeout(), std::chrono::milliseconds(10000));
+  EXPECT_FALSE(w.last_event_id());
+  w.filter(c).last_event_id(42);
+  WatchOptions w2 = w;
+  EXPECT_EQ(w2.filter().serial(), "x");
+  EXPECT_EQ(w2.last_event_id(), 42u);
+
+  ClientOptions o;
+  EXPECT_EQ(o.connect_timeout(), std::chrono::milliseconds(2000));
+  EXPECT_EQ(o.request_timeout(), std::chrono::milliseconds(10000));
+  EXPECT_EQ(o.complete_timeout(), std::chrono::milliseconds(5000));
+  EXPECT_FALSE(o.on_busy());
 }
 
 TEST(Filter, HostSelectsAnotherHostsCameras) {
   DeviceFilter f;
-  f.host = "rig pc";
+  f.host("rig pc");
   EXPECT_EQ(detail::devices_path(f), "/v1/devices?host=rig%20pc");
 }
 
@@ -1018,7 +1053,7 @@ TEST(Client, ListWaitsForTheCompleteTable) {
   // Told not to wait: the partial answer, said to be partial.
   h.command("domains " + kIncomplete);
   ClientOptions now;
-  now.complete_timeout = 0ms;
+  now.complete_timeout(0ms);
   l = Client(h.endpoint(), now).list();
   EXPECT_FALSE(l.complete);
   EXPECT_EQ(l.generation, generation);
@@ -1026,7 +1061,7 @@ TEST(Client, ListWaitsForTheCompleteTable) {
 
   // The wait is bounded: a table that never completes is answered from after the bound.
   ClientOptions brief;
-  brief.complete_timeout = 200ms;
+  brief.complete_timeout(200ms);
   const auto t0 = std::chrono::steady_clock::now();
   l = Client(h.endpoint(), brief).list();
   const auto took = std::chrono::steady_clock::now() - t0;
@@ -1046,7 +1081,7 @@ TEST(Client, FindWaitsForACameraWhileTheTableIsIncomplete) {
   ASSERT_TRUE(d);
   EXPECT_EQ(d->name, "L");
   ClientOptions now;
-  now.complete_timeout = 0ms;
+  now.complete_timeout(0ms);
   EXPECT_FALSE(Client(h.endpoint(), now).find_device("never"));
   // A 404 from a complete table is final at once.
   h.command("domains " + kComplete);
@@ -1091,7 +1126,7 @@ TEST(Watch, StreamsFromTheListsGenerationWithNothingLostOrTwice) {
     cv.wait(lock, [&] { return written >= 20 || finished; });
   }
   WatchOptions o;
-  o.initial = true;
+  o.initial(true);
   std::optional<Watch> w;
   EXPECT_NO_THROW(w.emplace(c.watch(o)));
   writer.join();

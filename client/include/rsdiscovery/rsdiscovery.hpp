@@ -1,7 +1,7 @@
 // rsdiscovery: a thin client of rs-discoveryd, the daemon that keeps a live table of
 // Intel RealSense cameras (found over DDS and USB).
 //
-// This header, with types.hpp and watch.hpp which it includes, is the whole public
+// This header, with types.hpp, options.hpp and watch.hpp which it includes, is the whole public
 // interface. It depends on the C++ standard library only: the device document the
 // daemon sends is handed over as JSON text (Device::json) next to the fields most
 // programs need, so callers are free to parse it with anything.
@@ -18,6 +18,7 @@
 // threads while the daemon may go away should ignore SIGPIPE, as network programs do.
 #pragma once
 
+#include <rsdiscovery/options.hpp>
 #include <rsdiscovery/types.hpp>
 #include <rsdiscovery/watch.hpp>
 
@@ -34,22 +35,6 @@ namespace rsdiscovery {
 // ---------------------------------------------------------------------------------
 // The client
 
-struct ClientOptions {
-  std::chrono::milliseconds connect_timeout{2000};
-  std::chrono::milliseconds request_timeout{10000};
-  // list(), list_devices(), get_device(), find_device(), wait_for() and wait_until()
-  // first wait this long at most for the daemon to finish its first discovery (it
-  // takes a few seconds after the daemon starts), so that a camera that is there is
-  // never reported missing just because the daemon has not heard from it yet.
-  // 0: answer at once from whatever the table holds.
-  std::chrono::milliseconds complete_timeout{5000};
-  // Called each time the daemon answers 503 with Retry-After (at its connection limit,
-  // or making its DDS participant anew) and the library waits as told before asking
-  // again, for up to 10 s in all: a sentence saying why and for how long, for a tool to
-  // show its user. Runs on the calling thread; empty: wait silently.
-  std::function<void(const std::string&)> on_busy;
-};
-
 class RSDISCOVERY_API Client {
  public:
   Client();  // Endpoint::from_environment()
@@ -62,7 +47,7 @@ class RSDISCOVERY_API Client {
   const Endpoint& endpoint() const;
 
   // The devices, with the generation and whether the table was complete (see
-  // ClientOptions::complete_timeout for the wait that comes first). One request to the
+  // ClientOptions::complete_timeout() for the wait that comes first). One request to the
   // daemon each call; to list often, keep a view() instead.
   DeviceList list(const DeviceFilter& filter = {});
   std::vector<Device> list_devices(const DeviceFilter& filter = {});  // list(filter).devices
@@ -91,7 +76,8 @@ class RSDISCOVERY_API Client {
   Description describe(const std::string& id,
                        std::chrono::milliseconds timeout = std::chrono::milliseconds(35000));
   // Who uses a network camera (id, serial or topic-root). Throws Error(not_found) when
-  // there is no such camera or it is a USB one (the daemon cannot see processes).
+  // there is no such camera or it is a USB one (the daemon cannot see processes;
+  // `rs-discover clients` looks for the processes holding one).
   CameraClients clients(const std::string& id);
   std::vector<DomainStatus> domains();
   // Every participant heard on the daemon's domains (or on `domain` only), alive
@@ -123,11 +109,11 @@ class RSDISCOVERY_API Client {
 
   // Pull-style watch. Returns once the stream is open (and, without a last_event_id,
   // the view listed); throws at once when the daemon cannot be reached then. Later
-  // disconnects are reconnected (options.reconnect).
+  // disconnects are reconnected (options.reconnect()).
   Watch watch(WatchOptions options = {});
   // A live copy of the table (see DeviceView), following the devices that match
-  // options.filter. Returns once the stream is open and the view listed; throws at once
-  // when the daemon cannot be reached then. options.initial does not apply (no events).
+  // options.filter(). Returns once the stream is open and the view listed; throws at once
+  // when the daemon cannot be reached then. options.initial() does not apply (no events).
   DeviceView view(WatchOptions options = {});
   // Push-style watch: `on_event` runs on the library's thread for every event.
   Subscription watch(std::function<void(const Event&)> on_event, WatchOptions options = {},

@@ -134,7 +134,7 @@ struct SharingHost {
 };
 // The host of a remote-usb device; nothing for any other (also where its document has
 // no readable "host": then a value with an empty name). A function rather than a
-// member, so that Device keeps the layout programs built against librsdiscovery0 have.
+// member: a member would change the layout of Device, which most calls hand out.
 RSDISCOVERY_API std::optional<SharingHost> sharing_host(const Device& device);
 
 struct DomainStatus {
@@ -243,32 +243,9 @@ struct DeviceList {
   std::vector<Device> devices;
   std::uint64_t generation = 0;  // the table's generation the list was taken at
   // False when the daemon had not finished its first discovery and the wait for it
-  // (ClientOptions::complete_timeout) ran out: cameras that are there may be missing.
+  // (ClientOptions::complete_timeout()) ran out: cameras that are there may be missing.
   bool complete = true;
 };
-
-// DeviceFilter and WatchOptions (which holds one) grew `host` with the soname kept:
-// they live in an inline namespace, so the calls that take them have new symbols, and
-// the library still exports the earlier ones for programs built against the earlier
-// layout (client/src/abi0_compat.cpp). Source code names them as before.
-inline namespace filters2 {
-
-// Filters of GET /v1/devices and /v1/events. Empty members do not filter. The daemon
-// applies them (values compare case-insensitively); the library never filters again.
-struct RSDISCOVERY_API DeviceFilter {
-  std::optional<int> domain;
-  std::vector<int> domains;  // more domains: a device on any of these and `domain` matches
-  std::string product_line;
-  std::string source;   // "dds", "usb" or "remote-usb" (another host's USB camera)
-  std::string serial;   // exactly this serial, ignoring case
-  std::string name;     // a name containing this, ignoring case ("d455")
-  std::string address;  // a camera whose server (or, remote-usb, whose host) has this address
-  // The USB cameras the daemon on the host of this name shares (remote-usb; the name
-  // as that host announces it, field "host" of the device document), ignoring case.
-  std::string host;
-};
-
-}  // namespace filters2
 
 struct Event {
   enum class Type { added, changed, removed };

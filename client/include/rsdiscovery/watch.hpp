@@ -2,6 +2,7 @@
 // part of <rsdiscovery/rsdiscovery.hpp>, which is what programs include.
 #pragma once
 
+#include <rsdiscovery/options.hpp>
 #include <rsdiscovery/types.hpp>
 
 #include <chrono>
@@ -20,41 +21,6 @@ namespace rsdiscovery {
 // ---------------------------------------------------------------------------------
 // Watching
 
-struct WatchStatus {
-  bool connected = false;
-  std::string message;  // why it disconnected, or where it connected
-};
-
-inline namespace filters2 {
-
-struct WatchOptions {
-  // Report every device present when the watch starts as a synthetic `added`.
-  bool initial = false;
-  // Resume after this event id (for example one saved by an earlier process).
-  std::optional<std::uint64_t> last_event_id;
-  // Only devices that match are watched (the daemon filters the list and the stream).
-  DeviceFilter filter;
-  // Reconnect (and resume) when the daemon goes away, for example across a restart.
-  bool reconnect = true;
-  std::chrono::milliseconds max_reconnect_delay{2000};
-  // A stream silent for this long is taken as dead and reconnected (the daemon
-  // sends keep-alive comments well within it).
-  std::chrono::milliseconds idle_timeout{60000};
-  // After a daemon restart (a resync), the watch waits this long at most for the
-  // restarted daemon's first discovery to be over before it compares its list with the
-  // view: so a camera that was there before and after the restart is not reported
-  // removed and added again. 0: compare at once (cameras not heard from again yet then
-  // show up as removed, and added a moment later). The first list is not waited for:
-  // it is the starting point, and what arrives after it is reported as events.
-  std::chrono::milliseconds complete_timeout{10000};
-  // Told when the stream is lost and when it is back (pull-style watches too; the
-  // push-style one takes its own on_status). Runs on the library's thread.
-  std::function<void(const WatchStatus&)> on_status;
-};
-
-}  // namespace filters2
-
-// Connection state changes of a watch, for logging; never required.
 class WatchCore;  // the library's insides
 
 // A running watch, in pull style: next() blocks for the next event. The stream keeps
