@@ -5,7 +5,7 @@ highlighted, and keeps its colour under the pointer; the selected row stands out
 its details scroll into view (a phone too), a #id link opens a camera, times show
 UTC, how long ago and local time; option values and ranges read as `rs-discover
 describe` prints them; the table is marked stale while the daemon is unreachable;
-the network view lists the realdds server. The spec is served at
+the network view lists the realdds server; a camera's details say who uses it. The spec is served at
 /openapi.yaml. A screenshot of the page is kept as a test artifact
 (RSD_BUILD_DIR/web-page.png), phone-sized and dark too."""
 import json
@@ -310,3 +310,44 @@ def test_selection_deep_link_and_times_on_a_phone(daemon, realdds_server, free_d
     wait_for(lambda: browser.find_element(By.ID, "details").is_displayed(), 15, what="the details from the link")
     assert first["serial"] in browser.find_element(By.ID, "details-title").text
     server.quit()
+
+
+def test_a_cameras_details_show_who_uses_it(daemon, realdds_server, free_domain, browser):
+    """The details of a network camera say whether it is in use and list its clients
+    (GET /v1/devices/{id}/clients) with what they stream, and follow them as they come
+    and go: a real pyrealdds program streaming Depth."""
+    import sys
+
+    from selenium.webdriver.common.by import By
+
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "interop"))
+    from test_clients import Client, d555
+
+    d = daemon([free_domain])
+    server = realdds_server(free_domain, [], name="d555-server")
+    x = d555("556222")
+    server.command(cmd="add", info=x, spec="d555")
+    xid = f"dds-{free_domain}-" + x["topic-root"].replace("/", ".")
+    wait_for(lambda: xid in d.device_ids(), 20, what="the camera")
+    browser.get(d.url + "/#" + xid)
+    details = browser.find_element(By.ID, "details")
+    wait_for(lambda: details.is_displayed() and "no client: free" in details.text, 10, what="the camera free",
+             fail=False) or pytest.fail("not free on the page: " + details.text)
+
+    viewer = Client(free_domain, x, "depth-viewer", streams=["Depth"])
+    try:
+        wait_for(lambda: "1 client, streaming Depth" in details.text, 10, what="in use on the page")
+
+        def clients_table():
+            return browser.execute_script("""
+                const t = document.getElementById('clients-table');
+                return t ? [...t.tBodies[0].rows].map((r) => [...r.cells].map((c) => c.innerText)) : null;""")
+        wait_for(lambda: clients_table() and clients_table()[0][0] == "depth-viewer", 10, what="the client listed")
+        [row] = clients_table()
+        listed = d.get_json(f"/v1/devices/{xid}/clients")["clients"][0]
+        assert row[1] == ", ".join(listed["addresses"]) and row[2] == "fast-dds" and row[4] == "Depth", row
+        browser.save_screenshot(os.path.join(ARTIFACTS, "web-page-clients.png"))
+    finally:
+        viewer.quit()
+    wait_for(lambda: "no client: free" in details.text, 10, what="free again on the page")
+    assert clients_table() is None or clients_table() == []
