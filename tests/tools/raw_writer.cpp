@@ -17,12 +17,18 @@
 // every writer announcing one camera (topic-root realsense/many_P_W) as realdds
 // does, once per reader that matches it; prints "announced N" once every writer
 // has announced to some reader, then runs until stdin closes.
+//
+//   rsd-raw-writer DOMAIN --endpoints PARTICIPANTS READERS NAME_LENGTH
+// an endpoint flood: PARTICIPANTS participants of READERS readers each, every reader
+// on a topic of its own whose name is NAME_LENGTH bytes long; prints "created N
+// SECONDS" once all are made, then runs until stdin closes (and deletes them).
 #include "dds/flexible_topic.hpp"
 
 #include "flexible.h"
 
 #include <dds/dds.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -119,17 +125,55 @@ int many_writers(dds_domainid_t domain, int participants, int per_participant) {
   return 0;
 }
 
+int many_endpoints(dds_domainid_t domain, int participants, int per_participant, std::size_t name_length) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<dds_entity_t> made;
+  long created = 0;
+  for (int p = 0; p < participants; ++p) {
+    dds_qos_t* pqos = dds_create_qos();
+    dds_qset_entity_name(pqos, ("rsd-endpoint-flood-" + std::to_string(p)).c_str());
+    const dds_entity_t participant = dds_create_participant(domain, pqos, nullptr);
+    dds_delete_qos(pqos);
+    if (participant < 0) {
+      std::cerr << "cannot create participant " << p << "\n";
+      return 1;
+    }
+    made.push_back(participant);
+    for (int r = 0; r < per_participant; ++r) {
+      std::string name = "rsd/flood_" + std::to_string(p) + "_" + std::to_string(r) + "_";
+      name.resize(std::max(name.size(), name_length), 'x');
+      const dds_entity_t topic = dds_create_topic(participant, &realdds_topics_raw_flexible_desc, name.c_str(),
+                                                  nullptr, nullptr);
+      if (topic < 0 || dds_create_reader(participant, topic, nullptr, nullptr) < 0) {
+        std::cerr << "cannot create reader " << r << " of participant " << p << "\n";
+        return 1;
+      }
+      ++created;
+    }
+  }
+  const std::chrono::duration<double> took = std::chrono::steady_clock::now() - start;
+  std::cout << "created " << created << " " << took.count() << std::endl;
+  std::string line;
+  while (std::getline(std::cin, line)) {}
+  for (const auto participant : made) dds_delete(participant);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const bool flood = argc == 5 && std::string(argv[2]) == "--flood";
   const bool writers = argc == 5 && std::string(argv[2]) == "--writers";
-  if (argc != 2 && !flood && !writers) {
-    std::cerr << "usage: rsd-raw-writer DOMAIN [--flood COUNT RATE | --writers PARTICIPANTS WRITERS]\n";
+  const bool endpoints = argc == 6 && std::string(argv[2]) == "--endpoints";
+  if (argc != 2 && !flood && !writers && !endpoints) {
+    std::cerr << "usage: rsd-raw-writer DOMAIN [--flood COUNT RATE | --writers PARTICIPANTS WRITERS |\n"
+                 "                             --endpoints PARTICIPANTS READERS NAME_LENGTH]\n";
     return 2;
   }
   const auto domain = static_cast<dds_domainid_t>(std::stoul(argv[1]));
   if (writers) return many_writers(domain, std::stoi(argv[3]), std::stoi(argv[4]));
+  if (endpoints)
+    return many_endpoints(domain, std::stoi(argv[3]), std::stoi(argv[4]), std::stoul(argv[5]));
   dds_qos_t* pqos = dds_create_qos();
   dds_qset_entity_name(pqos, "rsd-raw-writer");
   const dds_entity_t participant = dds_create_participant(domain, pqos, nullptr);
