@@ -5,9 +5,14 @@
 // domain_session.cpp, which keeps the device-info reader and the lifecycle.
 #include "dds/builtin_topics.hpp"
 #include "dds/domain_session.hpp"
+#include "dds/flexible_topic.hpp"  // without_type_information
+#include "dds/ros_nodes.hpp"
 #include "dds/take_batches.hpp"
 
 #include "log/log.hpp"
+#include "ros_discovery.h"
+
+#include <dds/ddsi/ddsi_serdata.h>
 
 #include <algorithm>
 #include <array>
@@ -17,6 +22,9 @@ namespace rsd::dds {
 namespace {
 
 log::RateLimiter g_endpoint_log;
+log::RateLimiter g_ros_log;
+
+constexpr const char* kRosDiscoveryTopic = "ros_discovery_info";
 
 std::vector<std::string> split_addresses(const char* value) {
   // Cyclone's "__NetworkAddresses" property: comma-separated locators such as
@@ -116,6 +124,26 @@ void DomainSession::create_builtin_readers() {
                       nullptr, endpoint_listener);
     dds_delete_listener(endpoint_listener);
   }
+  // ROS 2 participants' nodes, to name the ROS 2 nodes among a camera's clients.
+  // rmw's QoS: late joiners get each participant's latest sample. A failure costs
+  // the node names only.
+  static const dds_topic_descriptor_t descriptor =
+      without_type_information(rmw_dds_common_msg_dds__ParticipantEntitiesInfo__desc);
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_durability(qos, DDS_DURABILITY_TRANSIENT_LOCAL);
+  // No key: every participant's samples share one instance, so the history holds
+  // a burst of them until the listener takes it.
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 256);
+  const dds_entity_t topic = dds_create_topic(participant_, &descriptor, kRosDiscoveryTopic, qos, nullptr);
+  dds_listener_t* ros_listener = dds_create_listener(this);
+  dds_lset_data_available(ros_listener, &DomainSession::on_ros_discovery_data);
+  const dds_entity_t reader = topic < 0 ? topic : dds_create_reader(participant_, topic, qos, ros_listener);
+  dds_delete_listener(ros_listener);
+  dds_delete_qos(qos);
+  if (reader < 0)
+    log::warning(log::domain_prefix(options_.domain) + "no ROS 2 node names: cannot read ros_discovery_info: " +
+                 dds_strretcode(reader));
 }
 
 void DomainSession::on_participant_data(dds_entity_t reader, void* arg) {
@@ -220,6 +248,58 @@ void DomainSession::take_endpoint_changes(dds_entity_t reader, bool readers) {
     }
     update_in_use_of_topics(topics);
   });
+}
+
+void DomainSession::on_ros_discovery_data(dds_entity_t reader, void* arg) {
+  try {
+    static_cast<DomainSession*>(arg)->take_ros_discovery(reader);
+  } catch (const std::exception& e) {
+    log::error(std::string("ros_discovery_info listener: ") + e.what());
+  }
+}
+
+void DomainSession::take_ros_discovery(dds_entity_t reader) {
+  // Serialized, as received: the sample's GID size is the ROS 2 release's, which
+  // no one type describes (proto/ros_discovery.idl), so ros_nodes.cpp reads it.
+  constexpr std::uint32_t kBatch = 16;
+  std::array<ddsi_serdata*, kBatch> samples{};
+  std::array<dds_sample_info_t, kBatch> infos{};
+  const RosInfoLimits limits;
+  for (;;) {
+    const dds_return_t n = dds_takecdr(reader, samples.data(), kBatch, infos.data(), DDS_ANY_STATE);
+    if (n <= 0) return;
+    for (dds_return_t i = 0; i < n; ++i) {
+      ddsi_serdata* sample = samples[static_cast<std::size_t>(i)];
+      const dds_sample_info_t& info = infos[static_cast<std::size_t>(i)];
+      std::optional<RosParticipantInfo> parsed;
+      std::string writer;
+      if (info.valid_data && ddsi_serdata_size(sample) <= limits.bytes) {
+        std::vector<unsigned char> bytes(ddsi_serdata_size(sample));
+        ddsi_serdata_to_ser(sample, 0, bytes.size(), bytes.data());
+        parsed = parse_ros_discovery_info(bytes, limits);
+        if (dds_builtintopic_endpoint_t* ep = dds_get_matched_publication_data(reader, info.publication_handle)) {
+          writer = guid_to_string(ep->participant_key);
+          dds_builtintopic_free_endpoint(ep);
+        }
+      }
+      ddsi_serdata_unref(sample);
+      if (!info.valid_data) continue;
+      // A participant speaks for itself only: a sample naming another is refused.
+      const char* refused = !parsed                          ? "malformed"
+                            : parsed->participant != writer ? "about another participant"
+                                                            : nullptr;
+      if (!refused) {
+        std::lock_guard lock(mutex_);
+        if (!participants_.ros_nodes(parsed->participant, std::move(parsed->nodes))) refused = "beyond the bounds";
+      }
+      std::uint64_t suppressed = 0;
+      if (refused && g_ros_log.allow(std::to_string(options_.domain) + "/ros", suppressed))
+        log::warning(log::domain_prefix(options_.domain) + "ros_discovery_info from " +
+                     (writer.empty() ? "an unknown writer" : writer) + " refused: " + refused +
+                     (suppressed ? "; " + std::to_string(suppressed) + " more like it suppressed" : ""));
+    }
+    if (static_cast<std::uint32_t>(n) < kBatch) return;
+  }
 }
 
 void DomainSession::refuse_endpoint(EndpointRefusal r, const std::string& participant, std::size_t topic_length) {

@@ -7,6 +7,7 @@
 #include "dds/builtin_topics.hpp"
 
 #include "dds/flexible_topic.hpp"
+#include "dds/ros_nodes.hpp"
 #include "dds/take_batches.hpp"
 #include "log/log.hpp"
 
@@ -47,14 +48,7 @@ std::string dds_error(const char* what, dds_return_t rc) {
 
 }  // namespace
 
-std::string guid_to_string(const dds_guid_t& guid) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%02x%02x%02x%02x.%02x%02x%02x%02x.%02x%02x%02x%02x.%02x%02x%02x%02x",
-                guid.v[0], guid.v[1], guid.v[2], guid.v[3], guid.v[4], guid.v[5], guid.v[6], guid.v[7],
-                guid.v[8], guid.v[9], guid.v[10], guid.v[11], guid.v[12], guid.v[13], guid.v[14],
-                guid.v[15]);
-  return buf;
-}
+std::string guid_to_string(const dds_guid_t& guid) { return guid_text(std::span<const unsigned char, 16>(guid.v)); }
 
 DomainSession::DomainSession(SharedTable& table, SessionOptions options)
     : options_(std::move(options)), book_(table, [this] {

@@ -127,10 +127,12 @@ class DomainSession {
   static void on_participant_data(dds_entity_t reader, void* arg);
   static void on_publication_data(dds_entity_t reader, void* arg);
   static void on_subscription_data(dds_entity_t reader, void* arg);
+  static void on_ros_discovery_data(dds_entity_t reader, void* arg);
   static void on_subscription_matched(dds_entity_t reader, dds_subscription_matched_status_t status,
                                       void* arg);
   void take_participant_changes(dds_entity_t reader);
   void take_endpoint_changes(dds_entity_t reader, bool readers);  // readers: DCPSSubscription's
+  void take_ros_discovery(dds_entity_t reader);
   void take_samples(dds_entity_t reader);
   void handle_matched(dds_entity_t reader, const dds_subscription_matched_status_t& status);
   // Tells the book about `writer` if it does not know it yet (its GUID, its

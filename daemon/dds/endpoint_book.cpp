@@ -34,6 +34,11 @@ std::vector<std::string> roots_of(std::string_view topic) {
   return out;
 }
 
+bool is_camera_topic(std::string_view topic, std::string_view root) {
+  const auto roots = roots_of(topic);
+  return std::find(roots.begin(), roots.end(), root) != roots.end();
+}
+
 }  // namespace realdds_topics
 
 EndpointRefusal EndpointBook::alive(const std::string& participant, const std::string& endpoint,
@@ -114,6 +119,14 @@ void EndpointBook::clear() {
 std::size_t EndpointBook::count(const std::string& participant) const {
   const auto of = endpoints_.find(participant);
   return of == endpoints_.end() ? 0 : of->second.size();
+}
+
+std::string_view EndpointBook::topic_of(const std::string& participant, const std::string& endpoint) const {
+  const auto of = endpoints_.find(participant);
+  if (of == endpoints_.end()) return {};
+  const auto e = of->second.find(endpoint);
+  if (e == of->second.end() || e->second.topic == topics_.end()) return {};
+  return e->second.topic->first;
 }
 
 std::uint64_t EndpointBook::refused(EndpointRefusal r) const { return refused_[static_cast<int>(r)]; }

@@ -42,6 +42,8 @@ inline constexpr std::string_view kStreamPrefix = "rt/";
 // The topic-roots `topic` may belong to (a stream topic names its root only up to
 // one of its '_'); the caller keeps those that are cameras.
 std::vector<std::string> roots_of(std::string_view topic);
+// Whether `topic` is one a client of the camera `root` has.
+bool is_camera_topic(std::string_view topic, std::string_view root);
 }  // namespace realdds_topics
 
 class EndpointBook {
@@ -59,9 +61,12 @@ class EndpointBook {
   void clear();
 
   std::size_t count(const std::string& participant) const;
+  // The topic of one endpoint ("" when unknown or kept without it).
+  std::string_view topic_of(const std::string& participant, const std::string& endpoint) const;
   std::size_t total() const { return total_; }
   std::size_t topics() const { return topics_.size(); }
   std::uint64_t refused(EndpointRefusal r) const;
+  const EndpointLimits& limits() const { return limits_; }
 
   // A participant's use of one camera's topics.
   struct Use {

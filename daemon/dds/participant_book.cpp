@@ -32,6 +32,7 @@ void ParticipantBook::alive(ParticipantSighting s, const std::string& now) {
 
 std::vector<std::string> ParticipantBook::gone(const std::string& guid, const std::string& now) {
   std::vector<std::string> topics = endpoints_.participant_gone(guid);
+  drop_ros_nodes(guid);
   std::size_t most = 0;
   if (auto m = most_endpoints_.find(guid); m != most_endpoints_.end()) {
     most = m->second;
@@ -64,6 +65,24 @@ EndpointRefusal ParticipantBook::endpoint_alive(const std::string& participant, 
   return r;
 }
 
+bool ParticipantBook::ros_nodes(const std::string& participant, std::vector<RosNode> nodes) {
+  drop_ros_nodes(participant);
+  std::size_t endpoints = 0;
+  for (const auto& n : nodes) endpoints += n.endpoints.size();
+  if (nodes.empty()) return true;
+  if (ros_nodes_.size() >= max_alive_ || endpoints > endpoints_.limits().per_domain - ros_endpoints_) return false;
+  ros_endpoints_ += endpoints;
+  ros_nodes_[participant] = std::move(nodes);
+  return true;
+}
+
+void ParticipantBook::drop_ros_nodes(const std::string& participant) {
+  const auto it = ros_nodes_.find(participant);
+  if (it == ros_nodes_.end()) return;
+  for (const auto& n : it->second) ros_endpoints_ -= n.endpoints.size();
+  ros_nodes_.erase(it);
+}
+
 std::string ParticipantBook::endpoint_gone(const std::string& participant, const std::string& endpoint) {
   return endpoints_.gone(participant, endpoint);
 }
@@ -84,6 +103,14 @@ model::DeviceClients ParticipantBook::clients(const std::string& topic_root, con
     }
     c.since = use.since;
     c.streams.assign(use.streams.begin(), use.streams.end());
+    // A ROS 2 node is named by the nodes owning its endpoints on this camera's
+    // topics: one participant holds every node of its process.
+    if (auto r = ros_nodes_.find(guid); r != ros_nodes_.end())
+      for (const auto& node : r->second)
+        if (std::any_of(node.endpoints.begin(), node.endpoints.end(), [&](const std::string& e) {
+              return realdds_topics::is_camera_topic(endpoints_.topic_of(guid, e), topic_root);
+            }))
+          c.ros_nodes.push_back(node.name);
     for (const auto& [stream, readers] : use.readers) out.streams[stream] += readers;
     out.clients.push_back(std::move(c));
   }
@@ -95,6 +122,8 @@ void ParticipantBook::participant_rebuilt() {
   unlisted_ = 0;
   endpoints_.clear();
   most_endpoints_.clear();
+  ros_nodes_.clear();
+  ros_endpoints_ = 0;
 }
 
 std::vector<model::Participant> ParticipantBook::list(int domain, const std::string& now,

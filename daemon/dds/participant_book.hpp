@@ -5,6 +5,7 @@
 #pragma once
 
 #include "dds/endpoint_book.hpp"
+#include "dds/ros_nodes.hpp"
 #include "rsd_model/clients.hpp"
 #include "rsd_model/participant.hpp"
 
@@ -58,6 +59,10 @@ class ParticipantBook {
                                  bool reader, const std::string& now);
   std::string endpoint_gone(const std::string& participant, const std::string& endpoint);
   const EndpointBook& endpoints() const { return endpoints_; }
+  // A participant's ROS 2 nodes, from its latest ros_discovery_info (which says
+  // them all), kept until it goes. Refused (false) beyond the bounds: as many
+  // participants as are listed, as many node endpoints as a domain's endpoints.
+  bool ros_nodes(const std::string& participant, std::vector<RosNode> nodes);
 
   // The clients of the camera `topic_root`: every participant but its `servers` with
   // an endpoint on its topics (EndpointBook::users_of), named from its announcement
@@ -86,6 +91,9 @@ class ParticipantBook {
   // like one whose unicast never got through; this keeps them apart for the doctor.
   // An entry per participant with endpoints_ (bounded with it), dropped at gone().
   std::map<std::string, std::size_t> most_endpoints_;
+  std::map<std::string, std::vector<RosNode>> ros_nodes_;  // by participant GUID
+  std::size_t ros_endpoints_ = 0;                          // over all of ros_nodes_
+  void drop_ros_nodes(const std::string& participant);
 };
 
 }  // namespace rsd::dds

@@ -12,6 +12,7 @@ namespace ckey {
 constexpr const char* clients = "clients";
 constexpr const char* streams = "streams";
 constexpr const char* since = "since";
+constexpr const char* ros_nodes = "ros-nodes";
 }  // namespace ckey
 
 constexpr const char* kClient = "a client entry";
@@ -24,6 +25,8 @@ Client client_from_json(const nlohmann::json& doc) {
   peer_json::read(doc, c, kClient);
   c.since = text(doc, ckey::since, kClient);
   c.streams = texts(doc, ckey::streams, kClient);
+  // Absent from daemons before it.
+  if (doc.contains(ckey::ros_nodes)) c.ros_nodes = texts(doc, ckey::ros_nodes, kClient);
   return c;
 }
 
@@ -38,7 +41,7 @@ InUse summary_of(const DeviceClients& c) {
 }
 
 nlohmann::json to_json(const Client& c) {
-  nlohmann::json doc = {{ckey::since, c.since}, {ckey::streams, c.streams}};
+  nlohmann::json doc = {{ckey::since, c.since}, {ckey::streams, c.streams}, {ckey::ros_nodes, c.ros_nodes}};
   peer_json::write(doc, c);
   return doc;
 }

@@ -55,10 +55,16 @@ TEST(Model, InUseAndClientsRoundTrip) {
   EXPECT_EQ(to_json(device_from_json(odd)), odd);
 
   DeviceClients c;
-  c.clients.push_back({"g", "app", Vendor::cyclone_dds, "01.10", {"192.0.2.1"}, "pc", "python", 42, "T", {"Depth"}});
+  c.clients.push_back({"g", "app", Vendor::cyclone_dds, "01.10", {"192.0.2.1"}, "pc", "python", 42, "T", {"Depth"},
+                       {"/robot/viewer"}});
   c.streams = {{"Depth", 1}};
   const auto text = to_json(c);
   EXPECT_EQ(to_json(device_clients_from_json(text)), text);
+  EXPECT_EQ(text["clients"][0]["ros-nodes"], json::array({"/robot/viewer"}));
+  // A daemon from before ROS 2 node names: read as none.
+  auto older = text;
+  older["clients"][0].erase("ros-nodes");
+  EXPECT_TRUE(device_clients_from_json(older).clients[0].ros_nodes.empty());
   EXPECT_EQ(summary_of(c), (InUse{1, {"Depth"}}));
   EXPECT_THROW(device_clients_from_json(json::parse(R"({"clients":[{}],"streams":{}})")), MalformedDocument);
   EXPECT_THROW(device_clients_from_json(json::parse(R"({"clients":[],"streams":{"Depth":-1}})")), MalformedDocument);

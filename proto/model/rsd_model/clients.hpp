@@ -27,6 +27,9 @@ struct Client {
   std::optional<std::int64_t> pid;
   std::string since;                 // ISO 8601 UTC: its first endpoint on the camera's topics
   std::vector<std::string> streams;  // the stream names it reads, sorted
+  // The ROS 2 nodes (fully qualified) owning its endpoints on the camera's topics,
+  // from its participant's ros_discovery_info; none when it is no ROS 2 node.
+  std::vector<std::string> ros_nodes;
 };
 
 struct DeviceClients {
