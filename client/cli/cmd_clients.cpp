@@ -47,7 +47,8 @@ void print_dds_clients(const rsdiscovery::CameraClients& found) {
   }
   Table table({"NAME", "ADDRESSES", "VENDOR", "SINCE", "STREAMS", "GUID"});
   for (const auto& c : found.clients) {
-    std::string name = c.name.empty() ? "-" : c.name;
+    // A ROS 2 node's participant is named "/": its nodes say who it is.
+    std::string name = !c.ros_nodes.empty() ? joined(c.ros_nodes) : c.name.empty() ? "-" : c.name;
     if (!c.process.empty()) name += " (" + c.process + (c.host.empty() ? "" : "@" + c.host) + ")";
     table.add({name, joined(c.addresses), c.vendor, c.since, joined(c.streams), c.guid});
   }

@@ -24,7 +24,8 @@ std::string camera_name(const rsdiscovery::Device& d) {
 
 // "depth-viewer (viewer.py@lab-2) at 10.0.0.7": who a client is and where it runs.
 std::string client_name(const rsdiscovery::CameraClient& c) {
-  std::string out = "'" + (c.name.empty() ? c.guid : c.name) + "'";
+  // A ROS 2 node's participant is named "/": its nodes say who it is.
+  std::string out = "'" + (!c.ros_nodes.empty() ? joined(c.ros_nodes) : c.name.empty() ? c.guid : c.name) + "'";
   if (!c.process.empty() || !c.host.empty())
     out += " (" + c.process + (c.host.empty() ? "" : (c.process.empty() ? "" : "@") + c.host) + ")";
   if (!c.addresses.empty()) out += " at " + joined(c.addresses);

@@ -235,7 +235,7 @@ CameraClients clients_from_json(const json& doc) {
   for (auto& c : m.clients)
     out.clients.push_back({std::move(c.guid), std::move(c.name), std::string(rsd::model::to_string(c.vendor)),
                            std::move(c.addresses), c.host.value_or(""), c.process.value_or(""), std::move(c.since),
-                           std::move(c.streams)});
+                           std::move(c.streams), std::move(c.ros_nodes)});
   for (const auto& [name, readers] : m.streams) out.streams[name] = readers;
   out.json = doc.dump();
   return out;

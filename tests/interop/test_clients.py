@@ -330,3 +330,67 @@ def test_a_topic_name_too_long_is_counted_and_the_endpoint_kept(free_domain, dae
     assert peers, d.get_json("/v1/participants")
     assert "endpoint of" in d.log() and "topic-name-too-long" in d.log()
     assert d.healthy()
+
+
+class RosNode:
+    """tests/tools/ros_node.py: a ROS 2 node's participant ("/"), its readers and
+    its ros_discovery_info sample, from PyPI's Cyclone DDS."""
+
+    def __init__(self, domain, node, topics, gid_size, other_node=None, about=None):
+        args = [sys.executable, os.path.join(TESTS_DIR, "tools", "ros_node.py"), "--domain", str(domain),
+                "--node", node, "--gid-size", str(gid_size)]
+        for t in topics:
+            args += ["--topic", t]
+        if other_node:
+            args += ["--other-node", other_node]
+        if about:
+            args += ["--about", about]
+        self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        line = self.proc.stdout.readline()
+        assert line, "the ROS 2 node exited"
+        self.hello = json.loads(line)
+
+    def quit(self):
+        self.proc.stdin.close()
+        self.proc.wait(10)
+
+
+def test_a_ros2_node_reading_a_stream_is_named_by_its_node(free_domain, daemon, realdds_server):
+    """ROS 2 participants are all named "/": a client that is a ROS 2 node is named
+    by the node owning its reader, from ros_discovery_info, for Humble's 24-octet
+    GIDs and Iron's 16 alike; another node of the same process is not named, and a
+    sample speaking for another participant is refused."""
+    d = daemon([free_domain])
+    server = realdds_server(free_domain, [], name="d555-server")
+    x = d555("555999")
+    server.command(cmd="add", info=x, spec="d555")
+    xid = f"dds-{free_domain}-" + x["topic-root"].replace("/", ".")
+    wait_for(lambda: xid in d.device_ids(), 20, what="the camera")
+    depth = "rt/" + x["topic-root"] + "_Depth"
+
+    for gid_size in (24, 16):
+        node = RosNode(free_domain, "/robot/viewer", [depth], gid_size, other_node="/imu_filter")
+        guid = node.hello["participant"]
+
+        def entry():
+            return next((c for c in clients(d, xid)["clients"] if c["guid"] == guid), None)
+        wait_for(lambda: (entry() or {}).get("ros-nodes") == ["/robot/viewer"], what=f"the node named ({gid_size})")
+        assert entry()["name"] == "/" and entry()["streams"] == ["Depth"]
+        assert clients(d, xid)["streams"] == {"Depth": 1}
+        table = subprocess.run([CLI, "--endpoint", "unix:" + d.socket, "clients", x["serial"]], capture_output=True, text=True)
+        assert table.returncode == 0 and "/robot/viewer" in table.stdout and "/imu_filter" not in table.stdout, table
+        typed = rsdiscovery.Client("unix:" + d.socket).clients(xid)
+        assert [c.ros_nodes for c in typed.clients] == [("/robot/viewer",)]
+        _, found = doctor(d, xid)
+        assert any("streams Depth to '/robot/viewer'" in f["text"] for f in found), found
+        node.quit()
+        wait_for(lambda: entry() is None, what="the node gone with its participant")
+
+    # A sample naming another participant than its writer's: its client stays unnamed.
+    liar = RosNode(free_domain, "/robot/viewer", [depth], 16, about="0110abcd.00000001.00000002.000001c1")
+    wait_for(lambda: any(c["guid"] == liar.hello["participant"] for c in clients(d, xid)["clients"]),
+             what="the client listed")
+    wait_for(lambda: "refused: about another participant" in d.log(), what="the refusal logged")
+    assert [c["ros-nodes"] for c in clients(d, xid)["clients"]] == [[]]
+    liar.quit()
+    assert d.healthy()

@@ -182,6 +182,9 @@ struct CameraClient {
   std::string host, process;  // "" unless it says (Cyclone DDS peers do)
   std::string since;          // ISO 8601 UTC: its first endpoint on the camera's topics
   std::vector<std::string> streams;  // the streams it reads
+  // When it is a ROS 2 node (whose participant is named "/"): the nodes owning its
+  // readers and writers on the camera's topics, fully qualified ("/robot/viewer").
+  std::vector<std::string> ros_nodes;
 };
 
 struct CameraClients {

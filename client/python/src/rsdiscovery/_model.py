@@ -301,7 +301,9 @@ class Participant(_Document):
 class CameraClient(_Document):
     """A program using a network camera (``GET /v1/devices/{id}/clients``): a DDS
     participant other than the camera's server with a reader or writer on its topics.
-    ``since`` is when its first one was discovered; ``streams`` the streams it reads."""
+    ``since`` is when its first one was discovered; ``streams`` the streams it reads;
+    ``ros_nodes``, when it is a ROS 2 node, the nodes owning those readers and writers
+    (ROS 2 participants are all named "/")."""
 
     guid: str
     name: str
@@ -313,6 +315,7 @@ class CameraClient(_Document):
     pid: Optional[int]
     since: str
     streams: Tuple[str, ...]
+    ros_nodes: Tuple[str, ...]
     raw: Mapping[str, Any] = field(repr=False)
 
     @staticmethod
@@ -321,7 +324,8 @@ class CameraClient(_Document):
         return CameraClient(guid=r.req("guid", str), name=r.get("name", str, ""), vendor=r.get("vendor", str, "other"),
                             vendor_id=r.get("vendor-id", str, ""), addresses=r.strings("addresses"),
                             host=r.opt("host", str), process=r.opt("process", str), pid=r.opt("pid", int),
-                            since=r.get("since", str, ""), streams=r.strings("streams"), raw=r.doc)
+                            since=r.get("since", str, ""), streams=r.strings("streams"),
+                            ros_nodes=r.strings("ros-nodes"), raw=r.doc)
 
 
 @dataclass(frozen=True)
