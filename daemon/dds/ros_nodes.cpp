@@ -97,8 +97,10 @@ std::optional<RosParticipantInfo> parse_ros_discovery_info(std::span<const unsig
 }
 
 std::string full_node_name(std::string_view node_namespace, std::string_view node_name) {
-  std::string out(node_namespace);
-  if (out.empty() || out.back() != '/') out += '/';
+  // ROS 2 namespaces are absolute; one that is not is read as if it were, so a
+  // name always begins with '/'.
+  std::string out = node_namespace.starts_with('/') ? std::string(node_namespace) : "/" + std::string(node_namespace);
+  if (out.back() != '/') out += '/';
   out += node_name;
   return out;
 }

@@ -38,7 +38,8 @@ struct RosInfoLimits {
 std::optional<RosParticipantInfo> parse_ros_discovery_info(std::span<const unsigned char> sample,
                                                            const RosInfoLimits& limits = {});
 
-// "/robot" + "viewer" -> "/robot/viewer", "/" + "viewer" -> "/viewer".
+// "/robot" + "viewer" -> "/robot/viewer", "/" + "viewer" -> "/viewer"; always
+// absolute ("robot" + "viewer" -> "/robot/viewer").
 std::string full_node_name(std::string_view node_namespace, std::string_view node_name);
 
 // A 16-byte DDS GUID as the daemon spells GUIDs: "0110a3b1.22c44e8f.7f000001.000001c1".

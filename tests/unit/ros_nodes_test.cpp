@@ -203,3 +203,12 @@ TEST(ParticipantBookRosNodes, StayWithinTheirBounds) {
   // A participant's new sample replaces its old one's count.
   EXPECT_TRUE(book.ros_nodes(guid(1), {RosNode{"/n", std::vector<std::string>(8, guid(1))}}));
 }
+
+TEST(RosDiscoveryInfo, NodeNamesAreAlwaysAbsolute) {
+  using rsd::dds::full_node_name;
+  EXPECT_EQ(full_node_name("/", "viewer"), "/viewer");
+  EXPECT_EQ(full_node_name("/robot", "viewer"), "/robot/viewer");
+  EXPECT_EQ(full_node_name("/robot/", "viewer"), "/robot/viewer");
+  EXPECT_EQ(full_node_name("", "viewer"), "/viewer");
+  EXPECT_EQ(full_node_name("robot", "viewer"), "/robot/viewer");  // not ROS 2's, read as absolute
+}
