@@ -5,6 +5,8 @@
 #include "doctor.hpp"
 #include "usb_holders.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 
 namespace rsdiscover::doctor {
@@ -80,6 +82,25 @@ void check_usb_holders(Report& r, const rsdiscovery::Device& d) {
           camera_name(d) + " is held open by no process" + unread);
 }
 
+// Whether the camera sent its whole notification set when the daemon asked (the
+// device's "ready"): a camera listed but not ready is one librealsense finds and
+// then gives up on, which users report as "found but never ready".
+void check_ready(Report& r, const rsdiscovery::Device& d) {
+  const std::string ready = d.field("ready");
+  if (ready.empty()) return;  // not asked yet: describe-eagerly is off and no one described it
+  if (ready == "true") {
+    r.add(Verdict::ok, "ready", camera_name(d) + " sent its whole description when asked: it is ready");
+    return;
+  }
+  const auto stage = nlohmann::json::parse(d.field("ready-stage"), nullptr, false);
+  r.add(Verdict::warn, "ready",
+        camera_name(d) + " is listed but not ready: its server's notification set stopped at " +
+            (stage.is_string() ? stage.get<std::string>() : std::string("an unknown stage")) +
+            ". librealsense waits 5 s for that set, then gives the camera up (\"timeout waiting to get ready\"); "
+            "the daemon asks again, less and less often. Restart the camera's server (power-cycle a PoE camera); "
+            "if it happens on one network only, look for lost samples there (MTU, a switch dropping fragments)");
+}
+
 }  // namespace
 
 void check_camera(Report& r, rsdiscovery::Client& client, const std::string& id) {
@@ -92,7 +113,10 @@ void check_camera(Report& r, rsdiscovery::Client& client, const std::string& id)
     return;
   }
   r.add(Verdict::ok, "camera", camera_name(d) + " is listed as " + d.id + " (" + d.state + ")");
-  if (d.domain) check_dds_clients(r, client, d);
+  if (d.domain) {
+    check_ready(r, d);
+    check_dds_clients(r, client, d);
+  }
   const bool usb = d.source == "usb" || std::find(d.sources.begin(), d.sources.end(), "usb") != d.sources.end();
   if (usb) check_usb_holders(r, d);
 }

@@ -71,6 +71,7 @@ std::string DescriptionAssembler::add(const nlohmann::json& m) {
     device_options_ = nlohmann::json::array();
     streams_ = nlohmann::json::array();
     options_seen_.clear();
+    device_options_seen_ = false;
     step_ = n_streams_ == 0 ? Step::complete : Step::partial;
     return "";
   }
@@ -79,6 +80,7 @@ std::string DescriptionAssembler::add(const nlohmann::json& m) {
     auto options = m.contains("options") ? options_json(m["options"]) : std::nullopt;
     if (!options) return "bad-device-options";
     device_options_ = std::move(*options);
+    device_options_seen_ = true;
     return "";
   }
   if (id == "stream-header") {
@@ -130,6 +132,14 @@ std::string DescriptionAssembler::add(const nlohmann::json& m) {
     return "";
   }
   return "";  // another kind of notification
+}
+
+std::string DescriptionAssembler::stage() const {
+  if (step_ == Step::complete) return "complete";
+  if (step_ == Step::waiting) return "no device-header";
+  if (streams_.empty()) return device_options_seen_ ? "device-options" : "device-header";
+  const auto done = std::count(options_seen_.begin(), options_seen_.end(), true);
+  return "stream " + std::to_string(done) + " of " + std::to_string(n_streams_);
 }
 
 nlohmann::json DescriptionAssembler::description() const {

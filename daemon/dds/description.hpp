@@ -30,6 +30,10 @@ class DescriptionAssembler {
   std::string add(const nlohmann::json& message);
 
   Step step() const { return step_; }
+  // How far the set got, for a camera that never completes it: "no device-header",
+  // "device-header", "device-options" (then no stream yet), "stream K of N" (K
+  // streams with both their header and their options), or "complete".
+  std::string stage() const;
   // The description, once complete: streams (name, type, sensor, profiles,
   // default profile, metadata, options, intrinsics), device options,
   // extrinsics, presets. See proto/openapi.yaml, DeviceDescription.
@@ -42,6 +46,7 @@ class DescriptionAssembler {
   nlohmann::json device_options_ = nlohmann::json::array();
   nlohmann::json streams_ = nlohmann::json::array();  // in the order their headers came
   std::vector<bool> options_seen_;                    // per stream: its stream-options came
+  bool device_options_seen_ = false;
 };
 
 // A realdds option as JSON ([name, value, min, max, step, default, description,

@@ -13,8 +13,8 @@
 namespace rsd::dds {
 
 DescriptionFetcher::DescriptionFetcher(int domain, std::chrono::milliseconds fetch_timeout,
-                                       std::function<void(const std::string& topic_root)> described)
-    : domain_(domain), fetch_timeout_(fetch_timeout), described_(std::move(described)) {}
+                                       std::function<void(const std::string& topic_root, const Readiness&)> readiness)
+    : domain_(domain), fetch_timeout_(fetch_timeout), readiness_(std::move(readiness)) {}
 
 DescriptionFetcher::~DescriptionFetcher() {
   set_participant(0);
@@ -30,7 +30,7 @@ void DescriptionFetcher::set_participant(dds_entity_t participant) {
     for (auto& [root, fetch] : fetches_) {
       fetch->done = true;
       fetch->result = {DescribeResult::Outcome::unavailable, nullptr,
-                       "the domain's DDS participant is being made anew; ask again in a few seconds"};
+                       "the domain's DDS participant is being made anew; ask again in a few seconds", ""};
       ending.push_back(fetch);
     }
     fetches_.clear();
@@ -98,14 +98,14 @@ std::shared_ptr<DescriptionFetcher::Fetch> DescriptionFetcher::begin(const std::
     std::lock_guard lock(mutex_);
     if (auto kept = kept_.find(topic_root); kept != kept_.end()) {
       if (kept->second.announcement == announcement) {
-        answer = {DescribeResult::Outcome::ok, kept->second.description, ""};
+        answer = {DescribeResult::Outcome::ok, kept->second.description, "", ""};
         return nullptr;
       }
       kept_.erase(kept);  // announced anew since: its streams may differ
     }
     if (participant == 0) {
       answer = {DescribeResult::Outcome::unavailable, nullptr,
-                "the domain has no DDS participant now (starting or being made anew); ask again in a few seconds"};
+                "the domain has no DDS participant now (starting or being made anew); ask again in a few seconds", ""};
       return nullptr;
     }
     auto& slot = fetches_[topic_root];
@@ -114,6 +114,7 @@ std::shared_ptr<DescriptionFetcher::Fetch> DescriptionFetcher::begin(const std::
     slot->topic_root = topic_root;
     slot->announcement = announcement;
     slot->deadline = Clock::now() + fetch_timeout_;
+    slot->ready_deadline = Clock::now() + kLibrealsenseReadyWait;
     slot->owner = this;
     fetch = slot;
   }
@@ -124,7 +125,7 @@ std::shared_ptr<DescriptionFetcher::Fetch> DescriptionFetcher::begin(const std::
     if (!fetch->done) {
       fetch->done = true;
       fetch->result = {DescribeResult::Outcome::unavailable, nullptr,
-                       "cannot subscribe to " + topic_root + "/notification"};
+                       "cannot subscribe to " + topic_root + "/notification", ""};
       if (auto it = fetches_.find(topic_root); it != fetches_.end() && it->second == fetch) fetches_.erase(it);
     }
     changed_.notify_all();
@@ -143,15 +144,17 @@ DescribeResult DescriptionFetcher::describe(const std::string& topic_root, const
   if (fetch->done) return fetch->result;
   return {DescribeResult::Outcome::timeout, nullptr,
           "the camera's server sent no complete description within " +
-              std::to_string(std::chrono::duration_cast<std::chrono::seconds>(wait).count()) + " s"};
+              std::to_string(std::chrono::duration_cast<std::chrono::seconds>(wait).count()) +
+              " s (it got as far as: " + fetch->assembler.stage() + ")",
+          fetch->assembler.stage()};
 }
 
 void DescriptionFetcher::prefetch(const std::string& topic_root, const nlohmann::json& announcement) {
   {
     std::lock_guard lock(mutex_);
-    if (auto tried = prefetched_.find(topic_root); tried != prefetched_.end() && tried->second == announcement)
+    if (auto tried = prefetched_.find(topic_root); tried != prefetched_.end() && tried->second.announcement == announcement)
       return;
-    prefetched_[topic_root] = announcement;
+    prefetched_[topic_root] = Tried{announcement, std::nullopt, kRetryFirst};
   }
   DescribeResult answer;
   begin(topic_root, announcement, answer);
@@ -185,7 +188,7 @@ void DescriptionFetcher::take(Fetch& fetch, dds_entity_t reader) {
         }
         if (fetch.assembler.step() == DescriptionAssembler::Step::complete) {
           fetch.done = true;
-          fetch.result = {DescribeResult::Outcome::ok, fetch.assembler.description(), ""};
+          fetch.result = {DescribeResult::Outcome::ok, fetch.assembler.description(), "", ""};
           kept_[fetch.topic_root] = {fetch.announcement, fetch.result.description};
           if (auto it = fetches_.find(fetch.topic_root); it != fetches_.end() && it->second.get() == &fetch) {
             finished_.push_back(it->second);  // its reader goes on the main thread's next tick
@@ -199,13 +202,15 @@ void DescriptionFetcher::take(Fetch& fetch, dds_entity_t reader) {
   if (completed) {
     log::info(log::domain_prefix(domain_) + "described " + fetch.topic_root);
     changed_.notify_all();
-    if (described_) described_(fetch.topic_root);
+    if (readiness_) readiness_(fetch.topic_root, Readiness{true, ""});
   }
 }
 
 void DescriptionFetcher::tick(Clock::time_point now,
                               const std::function<bool(const std::string& topic_root)>& still_there) {
   std::vector<std::shared_ptr<Fetch>> ending;
+  std::vector<std::pair<std::string, Readiness>> not_ready;
+  std::vector<std::pair<std::string, nlohmann::json>> retries;
   bool expired = false;
   {
     std::lock_guard lock(mutex_);
@@ -213,11 +218,15 @@ void DescriptionFetcher::tick(Clock::time_point now,
       Fetch& f = *it->second;
       if (!still_there(f.topic_root)) {
         f.done = true;
-        f.result = {DescribeResult::Outcome::gone, nullptr, "the device left while it was being described"};
+        f.result = {DescribeResult::Outcome::gone, nullptr, "the device left while it was being described", ""};
         finished_.push_back(it->second);
         it = fetches_.erase(it);
         expired = true;
         continue;
+      }
+      if (now >= f.ready_deadline && !f.told_not_ready) {
+        f.told_not_ready = true;  // librealsense would have given the device up by now
+        not_ready.emplace_back(f.topic_root, Readiness{false, f.assembler.stage()});
       }
       if (now < f.deadline) {
         ++it;
@@ -227,8 +236,16 @@ void DescriptionFetcher::tick(Clock::time_point now,
       f.result = {DescribeResult::Outcome::timeout, nullptr,
                   "the camera's server sent no complete description within " +
                       std::to_string(std::chrono::duration_cast<std::chrono::seconds>(fetch_timeout_).count()) +
-                      " s"};
-      log::warning(log::domain_prefix(domain_) + "no complete description from " + f.topic_root);
+                      " s (it got as far as: " + f.assembler.stage() + ")",
+                  f.assembler.stage()};
+      log::warning(log::domain_prefix(domain_) + "no complete description from " + f.topic_root +
+                   " (it got as far as: " + f.assembler.stage() + ")");
+      not_ready.emplace_back(f.topic_root, Readiness{false, f.assembler.stage()});
+      if (auto tried = prefetched_.find(f.topic_root);
+          tried != prefetched_.end() && tried->second.announcement == f.announcement) {
+        tried->second.retry_at = now + tried->second.backoff;
+        tried->second.backoff = std::min<Clock::duration>(tried->second.backoff * 2, kRetryMost);
+      }
       finished_.push_back(it->second);
       it = fetches_.erase(it);
       expired = true;
@@ -236,16 +253,34 @@ void DescriptionFetcher::tick(Clock::time_point now,
     ending.swap(finished_);
     std::erase_if(kept_, [&](const auto& entry) { return !still_there(entry.first); });
     std::erase_if(prefetched_, [&](const auto& entry) { return !still_there(entry.first); });
+    for (auto& [root, tried] : prefetched_)
+      if (tried.retry_at && now >= *tried.retry_at && !fetches_.count(root)) {
+        tried.retry_at.reset();
+        retries.emplace_back(root, tried.announcement);
+      }
   }
   if (expired) changed_.notify_all();
   for (auto& fetch : ending) unsubscribe(*fetch);
+  if (readiness_)
+    for (const auto& [root, r] : not_ready) readiness_(root, r);
+  for (const auto& [root, announcement] : retries) {
+    log::debug([&] { return log::domain_prefix(domain_) + "asking " + root + " for its description again"; });
+    DescribeResult answer;
+    begin(root, announcement, answer);
+  }
 }
 
 std::optional<DescriptionFetcher::Clock::time_point> DescriptionFetcher::next_deadline(Clock::time_point now) const {
   std::lock_guard lock(mutex_);
-  if (fetches_.empty() && finished_.empty()) return std::nullopt;
-  Clock::time_point next = now + kInFlightCheck;
-  for (const auto& [topic_root, f] : fetches_) next = std::min(next, std::max(now, f->deadline));
+  std::optional<Clock::time_point> next;
+  const auto sooner = [&](Clock::time_point t) { next = next ? std::min(*next, t) : t; };
+  if (!fetches_.empty() || !finished_.empty()) sooner(now + kInFlightCheck);
+  for (const auto& [topic_root, f] : fetches_) {
+    sooner(std::max(now, f->deadline));
+    if (!f->told_not_ready) sooner(std::max(now, f->ready_deadline));
+  }
+  for (const auto& [topic_root, tried] : prefetched_)
+    if (tried.retry_at) sooner(std::max(now, *tried.retry_at));
   return next;
 }
 

@@ -33,6 +33,14 @@ struct DescribeResult {
   Outcome outcome = Outcome::unavailable;
   nlohmann::json description;
   std::string error;  // for the user, when not ok
+  std::string stage;  // timeout: how far the set got (DescriptionAssembler::stage)
+};
+
+// What a fetch tells of a camera's readiness: whether its whole notification set
+// came, and how far it got when not.
+struct Readiness {
+  bool ready = false;
+  std::string stage;  // when not ready
 };
 
 class DescriptionFetcher {
@@ -41,10 +49,12 @@ class DescriptionFetcher {
 
   // `fetch_timeout`: how long one fetch may take before it is given up (the use
   // case's 30 s); a caller may wait less.
-  // `described` is called (from a DDS listener thread, no lock held) with the
-  // topic-root of each device whose description became available.
+  // `readiness` is called, no lock held, with the topic-root of each device whose
+  // description became available (from a DDS listener thread), and of each whose
+  // set did not complete within librealsense's wait or the fetch's timeout (from
+  // tick(), on the main thread).
   DescriptionFetcher(int domain, std::chrono::milliseconds fetch_timeout,
-                     std::function<void(const std::string& topic_root)> described = {});
+                     std::function<void(const std::string& topic_root, const Readiness&)> readiness = {});
   ~DescriptionFetcher();
   DescriptionFetcher(const DescriptionFetcher&) = delete;
   DescriptionFetcher& operator=(const DescriptionFetcher&) = delete;
@@ -61,9 +71,16 @@ class DescriptionFetcher {
                           std::chrono::milliseconds wait);
 
   // Starts fetching, without waiting, unless the description is kept, a fetch is
-  // under way, or one was tried for this very announcement already (a server
-  // that does not answer is asked once per announcement, not every tick).
+  // under way, or one was tried for this very announcement already. A server
+  // whose set does not complete is asked again, after kRetryFirst, then twice as
+  // long each time up to kRetryMost, until it does or its announcement changes.
   void prefetch(const std::string& topic_root, const nlohmann::json& announcement);
+  static constexpr std::chrono::seconds kRetryFirst{5}, kRetryMost{300};
+  // librealsense waits this long for a new device's set (realdds'
+  // dds_device::wait_until_ready(), called from rsdds-device-factory.cpp without
+  // a timeout) and then gives the device up: a set not complete by then is
+  // reported not ready, although the fetch goes on until its own timeout.
+  static constexpr std::chrono::milliseconds kLibrealsenseReadyWait{5000};
 
   // Main thread: deletes the readers of finished or expired fetches, ends those
   // of devices that are gone and drops their kept descriptions (`still_there`
@@ -84,6 +101,8 @@ class DescriptionFetcher {
     nlohmann::json announcement;
     DescriptionAssembler assembler;
     Clock::time_point deadline;
+    Clock::time_point ready_deadline;  // kLibrealsenseReadyWait after the start
+    bool told_not_ready = false;
     dds_entity_t topic = 0, reader = 0;
     bool done = false;  // complete, failed or expired: nothing more to wait for
     DescribeResult result;
@@ -92,6 +111,11 @@ class DescriptionFetcher {
   struct Kept {
     nlohmann::json announcement;
     nlohmann::json description;
+  };
+  struct Tried {  // a prefetched announcement
+    nlohmann::json announcement;
+    std::optional<Clock::time_point> retry_at;  // after a fetch that did not complete
+    Clock::duration backoff = kRetryFirst;
   };
 
   // Starts or joins the fetch of `topic_root`; nullptr when the answer is at hand
@@ -106,7 +130,7 @@ class DescriptionFetcher {
 
   const int domain_;
   const std::chrono::milliseconds fetch_timeout_;
-  const std::function<void(const std::string&)> described_;
+  const std::function<void(const std::string&, const Readiness&)> readiness_;
   std::atomic<dds_entity_t> participant_{0};
   std::atomic<std::uint64_t> started_{0};
 
@@ -115,7 +139,7 @@ class DescriptionFetcher {
   std::map<std::string, std::shared_ptr<Fetch>> fetches_;  // in flight, by topic-root
   std::vector<std::shared_ptr<Fetch>> finished_;           // readers to delete (main thread)
   std::map<std::string, Kept> kept_;                       // by topic-root
-  std::map<std::string, nlohmann::json> prefetched_;       // topic-root -> announcement tried
+  std::map<std::string, Tried> prefetched_;                // by topic-root
   std::map<std::string, std::uint64_t> rejected_;
 };
 

@@ -140,6 +140,11 @@ void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann:
   // and stays across announcements.
   if (device.doc.in_use) doc[model::key::in_use] = model::to_json(*device.doc.in_use);
   else doc.erase(model::key::in_use);
+  // So is whether it is ready, known until a fetch for the new announcement concludes.
+  doc.erase(model::key::ready);
+  doc.erase(model::key::ready_stage);
+  if (device.doc.ready) doc[model::key::ready] = *device.doc.ready;
+  if (device.doc.ready_stage) doc[model::key::ready_stage] = *device.doc.ready_stage;
   device.doc = model::device_from_json(doc);
   if (auto ev = table_.upsert(id, std::move(doc)); ev && ev->type == EventType::added)
     log::info(prefix() + "device " + id + " added (from " + (writer ? writer->identity.guid : "unknown writer") +
@@ -425,16 +430,31 @@ void DomainBook::forget_devices(model::RemovalReason reason) {
   devices_of_writer_.clear();
 }
 
+namespace {
+
+// A device's announcement in the camera's own words: what the daemon adds (its
+// clients, whether it is ready or unresponsive) changes no description, so it must
+// not look like a new announcement to the fetcher.
+nlohmann::json own_words(model::Device doc) {
+  doc.in_use.reset();
+  doc.ready.reset();
+  doc.ready_stage.reset();
+  doc.unresponsive.reset();
+  return model::to_json(doc);
+}
+
+}  // namespace
+
 std::optional<nlohmann::json> DomainBook::announcement(const std::string& topic_root) const {
   const auto it = devices_.find(device_id(options_.domain, topic_root));
   if (it == devices_.end()) return std::nullopt;
-  return model::to_json(it->second.doc);
+  return own_words(it->second.doc);
 }
 
 std::map<std::string, nlohmann::json> DomainBook::announcements() const {
   std::map<std::string, nlohmann::json> out;
   for (const auto& [id, device] : devices_)
-    if (device.doc.topic_root) out.emplace(*device.doc.topic_root, model::to_json(device.doc));
+    if (device.doc.topic_root) out.emplace(*device.doc.topic_root, own_words(device.doc));
   return out;
 }
 
@@ -455,6 +475,19 @@ void DomainBook::set_in_use(const std::string& topic_root, const model::InUse& i
   if (it->second.doc.in_use == now) return;
   it->second.doc.in_use = std::move(now);
   table_.upsert(id, model::to_json(it->second.doc), /*heard=*/false);  // a client came, not the camera
+}
+
+void DomainBook::set_readiness(const std::string& topic_root, bool ready, const std::string& stage) {
+  const std::string id = device_id(options_.domain, topic_root);
+  const auto it = devices_.find(id);
+  if (it == devices_.end()) return;
+  model::Device& doc = it->second.doc;
+  const std::optional<std::string> now_stage = ready ? std::nullopt : std::optional<std::string>(stage);
+  if (doc.ready == ready && doc.ready_stage == now_stage) return;
+  if (!ready) log::warning(prefix() + "device " + id + " is not ready: its notification set got as far as " + stage);
+  doc.ready = ready;
+  doc.ready_stage = now_stage;
+  table_.upsert(id, model::to_json(doc), /*heard=*/false);  // the daemon's finding, not the camera's word
 }
 
 std::set<std::string> DomainBook::topic_roots() const {

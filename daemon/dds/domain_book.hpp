@@ -169,6 +169,10 @@ class DomainBook {
   // no client). The table changes only when the summary does: a client's burst of
   // endpoints is one change.
   void set_in_use(const std::string& topic_root, const model::InUse& in_use);
+  // Whether the device's notification set came whole when asked (DescriptionFetcher),
+  // into its document: "ready", and "ready-stage" while not. Kept across its
+  // announcements until the next fetch concludes.
+  void set_readiness(const std::string& topic_root, bool ready, const std::string& stage);
   // The topic-roots of every device: all the session's tick needs each time (copying
   // every announcement instead was most of the daemon's idle CPU).
   std::set<std::string> topic_roots() const;

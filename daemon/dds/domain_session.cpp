@@ -57,9 +57,13 @@ DomainSession::DomainSession(SharedTable& table, SessionOptions options)
         return book;
       }()),
       fetcher_(options_.domain, options_.describe_timeout,
-               [&table, domain = options_.domain, wake = options_.wake](const std::string& topic_root) {
-                 table.note_described(device_id(domain, topic_root));  // the `described` event
-                 if (wake) wake();  // its reader goes on the main thread
+               [this, &table](const std::string& topic_root, const Readiness& r) {
+                 if (r.ready) table.note_described(device_id(options_.domain, topic_root));  // the `described` event
+                 {
+                   std::lock_guard lock(mutex_);
+                   book_.set_readiness(topic_root, r.ready, r.stage);
+                 }
+                 if (options_.wake) options_.wake();  // its reader goes on the main thread
                }),
       share_(table, [this] {
         ShareOptions share = options_.share;

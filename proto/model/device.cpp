@@ -111,6 +111,8 @@ json to_json(const Device& d) {
   put(key::first_seen, d.first_seen);
   put(key::last_seen, d.last_seen);
   put(key::unresponsive, d.unresponsive);
+  put(key::ready, d.ready);
+  put(key::ready_stage, d.ready_stage);
   if (d.server) out[key::server] = to_json(*d.server);
   if (d.usb) out[key::usb] = usb_json(*d.usb);
   if (d.host) out[key::host] = to_json(*d.host);

@@ -4,6 +4,7 @@ writing the notification topic) for what a real one never does on purpose: never
 answering, never finishing a set, sending garbage."""
 import json
 import os
+import subprocess
 import sys
 import threading
 import time
@@ -211,3 +212,62 @@ def test_described_eagerly_when_configured(free_domain, daemon, realdds_server):
     assert status == 200 and len(desc["streams"]) == 4
     assert subscriptions(d, cam["topic-root"]) == 1
     server.quit()
+
+
+def test_a_camera_whose_set_never_completes_is_not_ready(free_domain, daemon, cyclone_peer, realdds_server):
+    """Found but never ready: with describe-eagerly, a camera whose server sends no
+    notification, or stops after one stream of two, is `ready: false` with the
+    stage its set reached once librealsense's 5 s wait is over, is asked again with
+    back-off, and `doctor ID` names it; a real realdds server's camera is ready."""
+    d = daemon([free_domain], extra=["--describe-eagerly", "all", "--describe-timeout", "8"])
+    silent, stalled = device_info(8), device_info(9)
+    writer = cyclone_peer(free_domain, "writer")
+    assert writer.next() == {"matched": True}
+    notifier = cyclone_peer(free_domain, "writer", topic=stalled["topic-root"] + "/notification")
+    announce(d, writer, free_domain, silent, stalled)
+    listed = time.monotonic()
+    assert notifier.next() == {"matched": True}  # the daemon's eager fetch subscribed
+
+    def rejected():
+        return d.get_json("/v1/domains")["domains"][0]["rejected"]
+
+    def heard():  # past the late-joiner race (see above)
+        notifier.send(raw="7b6e6f74", format=0)
+        return wait_for(lambda: rejected().get("notification-not-json"), timeout=0.5, fail=False)
+    wait_for(heard, timeout=4, interval=0, what="the made-up server heard")
+    notifier.send(json={"id": "device-header", "n-streams": 2, "extrinsics": []})
+    notifier.send(json={"id": "stream-header", "name": "Depth", "type": "depth", "sensor-name": "Stereo Module",
+                        "profiles": [[30, "16UC1", 848, 480]], "default-profile-index": 0,
+                        "metadata-enabled": False})
+    notifier.send(json={"id": "stream-options", "stream-name": "Depth", "options": []})
+
+    def doc(info):
+        return d.get_json(f"/v1/devices/{dds_id(free_domain, info)}")
+    wait_for(lambda: doc(silent).get("ready") is False, timeout=15, what="the silent camera not ready")
+    verdict = time.monotonic() - listed
+    print(f"\nnot ready {verdict:.2f} s after the camera was listed (librealsense waits 5 s)")
+    assert verdict >= 3.0, verdict  # not long before librealsense would have given up (5 s from the fetch)
+    assert doc(silent)["ready-stage"] == "no device-header"
+    wait_for(lambda: doc(stalled).get("ready-stage") == "stream 1 of 2", timeout=15, what="the stalled one's stage")
+    assert doc(stalled)["ready"] is False
+    status, body = d.request(f"/v1/devices/{dds_id(free_domain, stalled)}")[0:3:2]
+    check = spec()["paths"]["/v1/devices/{id}"]["get"]["responses"]["200"]["content"]["application/json"]["schema"]
+    OAS30Validator({**check, "components": spec()["components"]}).validate(json.loads(body))
+
+    # Asked again after the fetch timed out (8 s) and the first back-off (5 s).
+    wait_for(lambda: subscriptions(d, silent["topic-root"]) >= 2, timeout=25, what="the silent camera asked again")
+
+    cli = os.path.join(os.environ["RSD_BUILD_DIR"], "client", "rs-discover")
+    r = subprocess.run([cli, "--endpoint", "unix:" + d.socket, "doctor", "--json", "--listen", "0", stalled["serial"]],
+                       capture_output=True, text=True, timeout=60)
+    [ready] = [f for f in json.loads(r.stdout)["findings"] if f["topic"] == "ready"]
+    assert ready["verdict"] == "warn" and "stopped at stream 1 of 2" in ready["text"], ready
+    assert r.returncode == 1
+
+    # A real server's camera: ready, with no stage.
+    real = device_info(10)
+    realdds_server(free_domain, []).command(cmd="add", info=real, spec=SPEC)
+    wait_for(lambda: dds_id(free_domain, real) in d.device_ids() and doc(real).get("ready") is True, timeout=20,
+             what="the real camera ready")
+    assert "ready-stage" not in doc(real)
+    assert d.healthy()

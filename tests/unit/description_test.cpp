@@ -82,11 +82,26 @@ TEST(Description, ASecondSetStartsOverAndARepeatAfterCompleteIsHarmless) {
 TEST(Description, ASetThatNeverCompletes) {
   const auto messages = captured();
   DescriptionAssembler a;
-  for (std::size_t i = 0; i + 1 < messages.size(); ++i) a.add(messages[i]);  // the last options never come
+  EXPECT_EQ(a.stage(), "no device-header");
+  // The stage after each message of the real set: what `ready-stage` says of a
+  // camera whose set stops there.
+  const std::vector<std::string> stages = {"device-header", "device-options", "stream 0 of 3", "stream 1 of 3",
+                                           "stream 1 of 3", "stream 2 of 3", "stream 2 of 3"};
+  for (std::size_t i = 0; i + 1 < messages.size(); ++i) {  // the last options never come
+    a.add(messages[i]);
+    EXPECT_EQ(a.stage(), stages[i]) << i;
+  }
   EXPECT_EQ(a.step(), Step::partial);
+  a.add(messages.back());
+  EXPECT_EQ(a.stage(), "complete");
   DescriptionAssembler b;
   b.add(messages[2]);  // a stream-header before any device-header: not a set we follow
   EXPECT_EQ(b.step(), Step::waiting);
+  EXPECT_EQ(b.stage(), "no device-header");
+  DescriptionAssembler c;  // a server without device options
+  c.add(messages[0]);
+  c.add(messages[2]);
+  EXPECT_EQ(c.stage(), "stream 0 of 3");
 }
 
 TEST(Description, MalformedMessagesAreRejectedByReason) {

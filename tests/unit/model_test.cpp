@@ -70,6 +70,17 @@ TEST(Model, InUseAndClientsRoundTrip) {
   EXPECT_THROW(device_clients_from_json(json::parse(R"({"clients":[],"streams":{"Depth":-1}})")), MalformedDocument);
 }
 
+TEST(Model, ReadinessRoundTripsAndAWrongTypeStaysVerbatim) {
+  auto doc = json::parse(R"({"id":"x","ready":false,"ready-stage":"stream 1 of 2"})");
+  const Device d = device_from_json(doc);
+  EXPECT_EQ(d.ready, false);
+  EXPECT_EQ(d.ready_stage, "stream 1 of 2");
+  EXPECT_EQ(to_json(d), doc);
+  auto odd = json::parse(R"({"id":"x","ready":"no"})");
+  EXPECT_FALSE(device_from_json(odd).ready);
+  EXPECT_EQ(to_json(device_from_json(odd)), odd);
+}
+
 TEST(Model, StateAndLookup) {
   Device d;
   d.serial = "123";

@@ -43,6 +43,10 @@ inline constexpr const char* merged_into = "merged-into";
 inline constexpr const char* in_use = "in-use";
 // A DDS camera whose server's lease ran out, kept listed for the removal grace.
 inline constexpr const char* unresponsive = "unresponsive";
+// A DDS camera whose notification set was (not) received whole when the daemon
+// subscribed, and how far it got when not (written once the daemon knows).
+inline constexpr const char* ready = "ready";
+inline constexpr const char* ready_stage = "ready-stage";
 // Inside "usb": the camera's device files on this host (what `rs-discover clients`
 // looks for among the processes' open files).
 inline constexpr const char* device_nodes = "device-nodes";
@@ -118,6 +122,8 @@ struct Device {
   std::optional<std::string> merged_into;  // on a `removed` entry that joined another
   std::optional<InUse> in_use;             // DDS, while it has a client
   std::optional<bool> unresponsive;        // DDS, during the removal grace (true only)
+  std::optional<bool> ready;               // DDS, once a description fetch concluded
+  std::optional<std::string> ready_stage;  // DDS, while not ready: "stream 1 of 3" ...
   // Every other key, verbatim (the camera's own device-info keys; and a known key whose
   // value is not of the type above). Always an object.
   nlohmann::json extra = nlohmann::json::object();

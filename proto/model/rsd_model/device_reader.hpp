@@ -245,6 +245,8 @@ Device read_device(const V& doc) {
     else if (k == key::first_seen) ok = read(v, d.first_seen);
     else if (k == key::last_seen) ok = read(v, d.last_seen);
     else if (k == key::unresponsive) ok = read(v, d.unresponsive);
+    else if (k == key::ready) ok = read(v, d.ready);
+    else if (k == key::ready_stage) ok = read(v, d.ready_stage);
     else if (k == key::server) ok = read(v, d.server);
     else if (k == key::usb) ok = read(v, d.usb);
     else if (k == key::host) ok = read(v, d.host);
