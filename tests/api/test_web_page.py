@@ -321,14 +321,9 @@ def test_a_cameras_details_show_who_uses_it(daemon, realdds_server, free_domain,
     from selenium.webdriver.common.by import By
 
     sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "interop"))
-    from test_clients import Client, d555
+    from test_clients import Client, served_d555
 
-    d = daemon([free_domain])
-    server = realdds_server(free_domain, [], name="d555-server")
-    x = d555("556222")
-    server.command(cmd="add", info=x, spec="d555")
-    xid = f"dds-{free_domain}-" + x["topic-root"].replace("/", ".")
-    wait_for(lambda: xid in d.device_ids(), 20, what="the camera")
+    d, x, xid = served_d555(free_domain, daemon, realdds_server, "556222")
     browser.get(d.url + "/#" + xid)
     details = browser.find_element(By.ID, "details")
     wait_for(lambda: details.is_displayed() and "no client: free" in details.text, 10, what="the camera free",

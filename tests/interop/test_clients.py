@@ -33,6 +33,17 @@ def d555(serial):
             "topic-root": f"realsense/D555_{serial}"}
 
 
+def served_d555(domain, daemon, realdds_server, serial):
+    """A daemon on `domain` listing one d555 camera that the suite's realdds server
+    serves: (daemon, its device-info, its id)."""
+    d = daemon([domain])
+    realdds_server(domain, [], name="d555-server").command(cmd="add", info=d555(serial), spec="d555")
+    x = d555(serial)
+    xid = f"dds-{domain}-" + x["topic-root"].replace("/", ".")
+    wait_for(lambda: xid in d.device_ids(), 20, what="the camera")
+    return d, x, xid
+
+
 class Client:
     def __init__(self, domain, info, name, streams=()):
         args = [sys.executable, os.path.join(TESTS_DIR, "tools", "realdds_client.py"), "--domain", str(domain),
@@ -224,12 +235,7 @@ def test_doctor_names_the_client_streaming_a_camera(free_domain, daemon, realdds
     """doctor ID: a free camera is ok; one a client has open but does not stream is
     worth knowing; one streamed to another client is the likely cause of a refused
     open-streams, and the doctor names that client and where it runs."""
-    d = daemon([free_domain])
-    server = realdds_server(free_domain, [], name="d555-server")
-    x = d555("556111")
-    server.command(cmd="add", info=x, spec="d555")
-    xid = f"dds-{free_domain}-" + x["topic-root"].replace("/", ".")
-    wait_for(lambda: xid in d.device_ids(), 20, what="the camera")
+    d, x, xid = served_d555(free_domain, daemon, realdds_server, "556111")
     _, found = doctor(d, x["serial"])
     assert [(f["verdict"], f["topic"]) for f in found] == [("ok", "camera"), ("ok", "in-use")], found
     assert "has no client: it is free" in found[1]["text"]
@@ -278,12 +284,7 @@ pipe.stop()
 
 
 def test_librealsense_streaming_through_a_pipeline_is_a_client(free_domain, daemon, realdds_server):
-    d = daemon([free_domain])
-    server = realdds_server(free_domain, [], name="d555-server")
-    x = d555("555999")
-    server.command(cmd="add", info=x, spec="d555")
-    xid = f"dds-{free_domain}-" + x["topic-root"].replace("/", ".")
-    wait_for(lambda: xid in d.device_ids(), 20, what="the camera")
+    d, x, xid = served_d555(free_domain, daemon, realdds_server, "555999")
     env = dict(os.environ, PYTHONPATH=os.path.join(os.environ["RSD_SOURCE_DIR"], "client", "python", "src"),
                RS_DISCOVERY_ENDPOINT="unix:" + d.socket)
     proc = subprocess.Popen([sys.executable, "-c", LIBREALSENSE_STREAMING, x["serial"]], stdin=subprocess.PIPE,
@@ -360,12 +361,7 @@ def test_a_ros2_node_reading_a_stream_is_named_by_its_node(free_domain, daemon, 
     by the node owning its reader, from ros_discovery_info, for Humble's 24-octet
     GIDs and Iron's 16 alike; another node of the same process is not named, and a
     sample speaking for another participant is refused."""
-    d = daemon([free_domain])
-    server = realdds_server(free_domain, [], name="d555-server")
-    x = d555("555999")
-    server.command(cmd="add", info=x, spec="d555")
-    xid = f"dds-{free_domain}-" + x["topic-root"].replace("/", ".")
-    wait_for(lambda: xid in d.device_ids(), 20, what="the camera")
+    d, x, xid = served_d555(free_domain, daemon, realdds_server, "555999")
     depth = "rt/" + x["topic-root"] + "_Depth"
 
     for gid_size in (24, 16):
