@@ -107,8 +107,8 @@ model::DeviceClients ParticipantBook::clients(const std::string& topic_root, con
     // topics: one participant holds every node of its process.
     if (auto r = ros_nodes_.find(guid); r != ros_nodes_.end())
       for (const auto& node : r->second)
-        if (std::any_of(node.endpoints.begin(), node.endpoints.end(), [&](const std::string& e) {
-              return realdds_topics::is_camera_topic(endpoints_.topic_of(guid, e), topic_root);
+        if (std::any_of(node.endpoints.begin(), node.endpoints.end(), [&, &owner = guid](const std::string& e) {
+              return realdds_topics::is_camera_topic(endpoints_.topic_of(owner, e), topic_root);
             }))
           c.ros_nodes.push_back(node.name);
     for (const auto& [stream, readers] : use.readers) out.streams[stream] += readers;
