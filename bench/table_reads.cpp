@@ -21,7 +21,7 @@
 
 namespace {
 
-class NoStatus final : public rsd::StatusSource {
+class NoStatus final : public rsd::StatusView {
  public:
   std::vector<rsd::DomainStatus> domains() const override { return {}; }
   std::vector<rsd::model::Participant> participants() const override { return {}; }

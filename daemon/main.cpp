@@ -8,7 +8,7 @@
 #include "service/listen_sockets.hpp"
 #include "service/network_watch.hpp"
 #include "service/service.hpp"
-#include "service/sources_status.hpp"
+#include "service/domains_and_usb_status.hpp"
 #include "service/usb_watch.hpp"
 #include "table/shared_table.hpp"
 
@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
   rsd::service::Service service(table, domains, usb, expected, config, std::vector<std::string>(argv, argv + argc));
   service.set_network(&network);
 
-  const rsd::service::SourcesStatus status(domains, usb, expected, options.session.describe_timeout);
+  const rsd::service::DomainsAndUsbStatus status(domains, usb, expected, options.session.describe_timeout);
   rsd::api::ApiServer api(table, status, RSD_VERSION);
   rsd::api::ApiOptions api_options = options.api;
   try {

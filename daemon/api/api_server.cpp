@@ -235,7 +235,7 @@ void ApiServer::Impl::stop_locked() {
   started = false;
 }
 
-ApiServer::ApiServer(SharedTable& table, const StatusSource& status, std::string version)
+ApiServer::ApiServer(SharedTable& table, const StatusView& status, std::string version)
     : impl_(std::make_unique<Impl>(table, status, std::move(version))) {}
 
 ApiServer::~ApiServer() { stop(); }

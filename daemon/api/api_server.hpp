@@ -1,7 +1,7 @@
 // The read-only JSON API, served the same over a Unix socket and over HTTP.
 #pragma once
 
-#include "status/status_source.hpp"
+#include "status/status_view.hpp"
 #include "table/shared_table.hpp"
 
 #include <memory>
@@ -47,7 +47,7 @@ class ApiServer {
  public:
   // `status` is everything the API shows that is not the device table itself
   // (domains, USB, descriptions); it must outlive the server.
-  ApiServer(SharedTable& table, const StatusSource& status, std::string version);
+  ApiServer(SharedTable& table, const StatusView& status, std::string version);
   ~ApiServer();
   ApiServer(const ApiServer&) = delete;
   ApiServer& operator=(const ApiServer&) = delete;

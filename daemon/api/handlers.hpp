@@ -26,7 +26,7 @@ void send_error(ApiResponse& res, int status, const std::string& message);
 class Handlers {
  public:
   // `status` is everything the API shows besides the table; it must outlive these.
-  Handlers(SharedTable& t, const StatusSource& s, std::string v) : table(t), status(s), version(std::move(v)) {}
+  Handlers(SharedTable& t, const StatusView& s, std::string v) : table(t), status(s), version(std::move(v)) {}
 
   void handle_devices(const ApiRequest& req, ApiResponse& res);
   void handle_device(const ApiRequest& req, ApiResponse& res);
@@ -44,7 +44,7 @@ class Handlers {
   void handle_history(const ApiRequest& req, ApiResponse& res);         // history_handlers.cpp
 
   SharedTable& table;
-  const StatusSource& status;
+  const StatusView& status;
   const std::string version;
   ApiOptions options;
   // The running loop, for /metrics; null while stopped (set and cleared by the

@@ -21,7 +21,7 @@ struct DaemonOptions {
   std::vector<int> domains;
   bool usb = true;
   // Every domain's session (DomainSet sets `domain`); its describe_timeout is also
-  // how long an API request waits for a description (SourcesStatus).
+  // how long an API request waits for a description (DomainsAndUsbStatus).
   dds::SessionOptions session;
   // The interfaces the domains join (NetworkWatch); not followed when the Cyclone
   // configuration names its own (session.interfaces_from_cyclone_config).

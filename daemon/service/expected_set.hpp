@@ -1,6 +1,6 @@
 // The expected cameras of the running configuration, readable from any thread: the
 // service sets them at start and on every reload (main thread), the API's threads
-// read them through StatusSource::expected().
+// read them through StatusView::expected().
 #pragma once
 
 #include "rsd_model/expected.hpp"

@@ -35,7 +35,7 @@
 namespace {
 
 // The sources' status as the test sets it: domains from stdin, no USB, nothing to describe.
-class HarnessStatus final : public rsd::StatusSource {
+class HarnessStatus final : public rsd::StatusView {
  public:
   void set_domains(std::vector<rsd::DomainStatus> next) {
     std::lock_guard lock(mutex_);

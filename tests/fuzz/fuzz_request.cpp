@@ -14,7 +14,7 @@
 
 namespace {
 
-class NoSources final : public rsd::StatusSource {
+class NoSources final : public rsd::StatusView {
  public:
   std::vector<rsd::DomainStatus> domains() const override {
     rsd::DomainStatus d;

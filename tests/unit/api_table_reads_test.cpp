@@ -10,7 +10,7 @@ using nlohmann::json;
 
 namespace {
 
-class Sources final : public rsd::StatusSource {
+class Sources final : public rsd::StatusView {
  public:
   bool done = true;
   std::vector<rsd::DomainStatus> domains() const override {

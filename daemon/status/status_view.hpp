@@ -1,5 +1,5 @@
-// The one interface through which frontends see the sources besides the table:
-// plain status values, asked for at request time from any thread. The service
+// What frontends see of the sources besides the table, the one interface they
+// read it through: plain status values, asked for at request time from any thread. The service
 // implements it over the DDS domains and the USB watcher it owns; the API knows
 // nothing else about them (no DDS or USB header), and a test harness can stand in.
 #pragma once
@@ -18,9 +18,9 @@
 
 namespace rsd {
 
-class StatusSource {
+class StatusView {
  public:
-  virtual ~StatusSource() = default;
+  virtual ~StatusView() = default;
 
   // Every joined domain, in no particular order.
   virtual std::vector<DomainStatus> domains() const = 0;

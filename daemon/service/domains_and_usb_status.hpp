@@ -1,20 +1,21 @@
-// The StatusSource the API reads: the joined DDS domains and the USB watcher, as
-// plain status values. The service owns both sources; this only asks them.
+// The StatusView the API reads, made of the joined DDS domains, the USB watcher
+// and the expected cameras, as plain status values. The service owns them; this
+// only asks them.
 #pragma once
 
 #include "service/domain_set.hpp"
 #include "service/expected_set.hpp"
 #include "service/usb_watch.hpp"
-#include "status/status_source.hpp"
+#include "status/status_view.hpp"
 
 #include <chrono>
 
 namespace rsd::service {
 
-class SourcesStatus final : public StatusSource {
+class DomainsAndUsbStatus final : public StatusView {
  public:
-  SourcesStatus(const DomainSet& domains, const UsbWatch& usb, const ExpectedSet& expected,
-                std::chrono::milliseconds describe_wait)
+  DomainsAndUsbStatus(const DomainSet& domains, const UsbWatch& usb, const ExpectedSet& expected,
+                      std::chrono::milliseconds describe_wait)
       : domains_(domains), usb_(usb), expected_(expected), describe_wait_(describe_wait) {}
 
   std::vector<DomainStatus> domains() const override { return domains_.status(); }
