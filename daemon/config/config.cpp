@@ -228,8 +228,10 @@ log-level, cyclonedds-config, max-devices-per-participant, max-devices-per-domai
 max-writers-per-participant, max-writers-per-domain, interfaces and
 exclude-interfaces (lists), describe-timeout, describe-eagerly (true, false or a list of
 domains), removal-grace, allowed-hosts (a list), max-clients, expect (a list); otherwise
-the same meanings as the flags. SIGHUP applies domains, usb, log-level, interfaces,
-exclude-interfaces and expect; the other keys take effect on restart.
+the same meanings as the flags. SIGHUP applies domains, usb, log-level,
+interfaces, exclude-interfaces, expect, max-devices-per-participant and
+max-devices-per-domain; the other keys take effect on restart. Devices past a
+lowered cap leave the table as refused.
 
 API: GET /v1/devices, /v1/devices/{id}, /v1/devices/{id}/description,
 /v1/events (Server-Sent Events),

@@ -218,9 +218,9 @@ void expect_from_flag(const std::string& text, Config& c, bool first, const std:
 constexpr char kHostNames[] = "host names";
 constexpr char kInterfacePatterns[] = "interface names or patterns";
 
-#define RSD_LIMIT(file, field)                                                                        \
+#define RSD_LIMIT(file, field, reload)                                                                \
   ConfigKey {                                                                                         \
-    file, file, '\0', true, Reload::restart, number_from_file<&Config::field, parse_limit>,           \
+    file, file, '\0', true, reload, number_from_file<&Config::field, parse_limit>,                    \
         text_from_flag<&Config::field, parse_limit>, copy<&Config::field>, same<&Config::field>       \
   }
 
@@ -257,7 +257,7 @@ const ConfigKey kKeys[] = {
      list_from_file<&Config::allowed_hosts, parse_allowed_host, kHostNames>,
      list_from_flag<&Config::allowed_hosts, parse_allowed_host>, copy<&Config::allowed_hosts>,
      same<&Config::allowed_hosts>},
-    RSD_LIMIT("max-clients", max_clients),
+    RSD_LIMIT("max-clients", max_clients, Reload::restart),
     {"usb", "no-usb", '\0', false, Reload::live,
      [](const json& v, Config& c, const std::string& at) {
        if (!v.is_boolean()) throw ConfigError(at + " must be true or false");
@@ -291,10 +291,10 @@ const ConfigKey kKeys[] = {
      copy<&Config::cyclonedds_config>, same<&Config::cyclonedds_config>},
     {"log-level", "log-level", '\0', true, Reload::live, text_from_file<&Config::log_level, check_log_level>,
      text_from_flag<&Config::log_level, check_log_level>, copy<&Config::log_level>, same<&Config::log_level>},
-    RSD_LIMIT("max-devices-per-participant", max_devices_per_participant),
-    RSD_LIMIT("max-devices-per-domain", max_devices_per_domain),
-    RSD_LIMIT("max-writers-per-participant", max_writers_per_participant),
-    RSD_LIMIT("max-writers-per-domain", max_writers_per_domain),
+    RSD_LIMIT("max-devices-per-participant", max_devices_per_participant, Reload::live),
+    RSD_LIMIT("max-devices-per-domain", max_devices_per_domain, Reload::live),
+    RSD_LIMIT("max-writers-per-participant", max_writers_per_participant, Reload::restart),
+    RSD_LIMIT("max-writers-per-domain", max_writers_per_domain, Reload::restart),
     {"describe-timeout", "describe-timeout", '\0', true, Reload::restart,
      number_from_file<&Config::describe_timeout_s, parse_seconds>,
      text_from_flag<&Config::describe_timeout_s, parse_seconds>, copy<&Config::describe_timeout_s>,

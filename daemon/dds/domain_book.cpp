@@ -120,6 +120,7 @@ void DomainBook::sample(Handle handle, Parsed parsed) {
 
 void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann::json doc) {
   Announced& device = devices_[id];
+  if (device.found == 0) device.found = ++devices_found_;
   nlohmann::json server = nlohmann::json::object();
   if (writer) {
     const WriterIdentity& w = writer->identity;
@@ -428,6 +429,42 @@ void DomainBook::forget_devices(model::RemovalReason reason) {
   devices_.clear();
   per_participant_.clear();
   devices_of_writer_.clear();
+}
+
+std::vector<std::string> DomainBook::set_device_caps(std::size_t per_participant, std::size_t per_domain) {
+  options_.max_devices_per_participant = per_participant;
+  options_.max_devices_per_domain = per_domain;
+  std::vector<std::pair<std::uint64_t, std::string>> newest_first;
+  for (const auto& [id, device] : devices_) newest_first.emplace_back(device.found, id);
+  std::sort(newest_first.rbegin(), newest_first.rend());
+  std::vector<std::string> refused;
+  for (const auto& [found, id] : newest_first) {
+    auto dev = devices_.find(id);
+    if (devices_.size() > per_domain) {
+      for (const auto& [guid, server] : dev->second.announcers)
+        if (auto n = per_participant_.find(participant_of(guid)); n != per_participant_.end() && --n->second == 0)
+          per_participant_.erase(n);
+      unresponsive_.erase(id);
+      remove_device(id, model::RemovalReason::refused,
+                    "max-devices-per-domain is now " + std::to_string(per_domain));
+      refused.push_back(id);
+      continue;
+    }
+    // Over a participant's cap, that participant's announcement goes; the device
+    // stays while another server still announces it.
+    const auto announcers = dev->second.announcers;  // drop_announcer edits the list
+    for (const auto& [guid, server] : announcers) {
+      const auto n = per_participant_.find(participant_of(guid));
+      if (n == per_participant_.end() || n->second <= per_participant) continue;
+      if (drop_announcer(id, guid, model::RemovalReason::refused,
+                         "max-devices-per-participant is now " + std::to_string(per_participant))) {
+        unresponsive_.erase(id);
+        refused.push_back(id);
+        break;
+      }
+    }
+  }
+  return refused;
 }
 
 namespace {

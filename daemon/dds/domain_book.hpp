@@ -158,6 +158,10 @@ class DomainBook {
 
   // Removes this domain's devices from the table (leaving the domain for good).
   void forget_devices(model::RemovalReason reason);
+  // New device caps (a reload). Devices past them leave the table as `refused`,
+  // the most recently found first: those listed longest are what clients hold.
+  // Returns the ids removed.
+  std::vector<std::string> set_device_caps(std::size_t per_participant, std::size_t per_domain);
   // The device with this topic-root as last announced (with its server), if any.
   std::optional<nlohmann::json> announcement(const std::string& topic_root) const;
   // topic-root -> the device as last announced, for every device.
@@ -193,6 +197,7 @@ class DomainBook {
   // Typed: as JSON objects, the document and its servers were ~3.7 KB a camera,
   // the largest part of the daemon's memory at 10,000 (bench scale10k, massif).
   struct Announced {
+    std::uint64_t found = 0;  // the order devices were found in, for set_device_caps
     model::Device doc;  // as last given to the table
     // (writer GUID, that writer's server), the latest announcer last: it is the
     // one the document shows.
@@ -231,6 +236,7 @@ class DomainBook {
   std::set<std::string> retried_writers_;                // GUIDs silent when the reader was made anew
   std::set<std::string> idle_writers_;                   // GUIDs silent for that new reader too
   std::map<std::string, Announced> devices_;             // by device id
+  std::uint64_t devices_found_ = 0;
   // writer GUID -> the ids of the devices it announces: a writer leaving finds
   // its devices without a walk over every device (thousands of writers leave
   // one by one when a large server goes).

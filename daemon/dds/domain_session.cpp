@@ -202,6 +202,13 @@ void DomainSession::forget_devices(model::RemovalReason reason) {
   share_.forget_devices(reason);
 }
 
+void DomainSession::set_device_caps(std::size_t per_participant, std::size_t per_domain) {
+  std::lock_guard lock(mutex_);
+  options_.book.max_devices_per_participant = per_participant;
+  options_.book.max_devices_per_domain = per_domain;
+  book_.set_device_caps(per_participant, per_domain);
+}
+
 void DomainSession::share_usb(std::map<std::string, nlohmann::json> cameras) {
   // Where other hosts reach this one: the addresses the domain is joined on
   // (only the main thread changes them).

@@ -88,6 +88,9 @@ class DomainSession {
   void rebuild();
   // Removes this domain's devices from the table (leaving the domain for good).
   void forget_devices(model::RemovalReason reason);
+  // DomainBook::set_device_caps (a reload). The reader keeps the history depth
+  // it was made with (at least reader_history) until it is made anew.
+  void set_device_caps(std::size_t per_participant, std::size_t per_domain);
   // The host's network changed: the participant is made anew on `chosen` (a
   // rebuild, so devices of servers still reachable stay without an event).
   void follow_network(std::vector<net::NetInterface> chosen);

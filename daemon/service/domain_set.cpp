@@ -100,6 +100,12 @@ void DomainSet::stop() {
   for (auto& [d, s] : sessions_) s->stop();
 }
 
+void DomainSet::set_device_caps(std::size_t per_participant, std::size_t per_domain) {
+  base_.book.max_devices_per_participant = per_participant;
+  base_.book.max_devices_per_domain = per_domain;
+  for (auto& [d, s] : sessions_) s->set_device_caps(per_participant, per_domain);
+}
+
 void DomainSet::share_usb(const std::map<std::string, nlohmann::json>& cameras) {
   usb_cameras_ = cameras;
   for (auto& [d, s] : sessions_) s->share_usb(cameras);

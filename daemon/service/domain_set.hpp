@@ -58,6 +58,8 @@ class DomainSet {
   // (each session writes only what changed), and on domains joined later. Main
   // thread, each time they change.
   void share_usb(const std::map<std::string, nlohmann::json>& cameras);
+  // New device caps for every domain, joined now or later (a reload).
+  void set_device_caps(std::size_t per_participant, std::size_t per_domain);
 
   // Main thread only (the one that changes the set).
   std::vector<int> ids() const;

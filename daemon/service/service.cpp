@@ -186,6 +186,10 @@ void Service::reload() {
   if (network_ && (options.interfaces.include != running.interfaces.include ||
                    options.interfaces.exclude != running.interfaces.exclude))
     network_->apply(options.interfaces, std::chrono::steady_clock::now());
+  const auto& caps = options.session.book;
+  const bool caps_changed = caps.max_devices_per_participant != running.session.book.max_devices_per_participant ||
+                            caps.max_devices_per_domain != running.session.book.max_devices_per_domain;
+  if (caps_changed) domains_.set_device_caps(caps.max_devices_per_participant, caps.max_devices_per_domain);
   const auto change = domains_.apply(options.domains);
 
   // What listeners and DDS participants were made with waits for a restart; the
@@ -205,6 +209,9 @@ void Service::reload() {
   std::vector<std::string> what;
   // USB on or off, live: off takes the USB devices out of the table.
   if (usb_.apply(options.usb)) what.push_back(options.usb ? "USB watched" : "USB no longer watched");
+  if (caps_changed)
+    what.push_back("device caps now " + std::to_string(caps.max_devices_per_participant) + " per participant, " +
+                   std::to_string(caps.max_devices_per_domain) + " per domain");
   if (!change.joined.empty()) {
     std::vector<std::string> j;
     for (int d : change.joined) j.push_back(std::to_string(d));

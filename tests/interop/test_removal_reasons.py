@@ -4,6 +4,7 @@ its gone answer (410) and /metrics. Times from the event to the verdict are prin
 for the report."""
 import json
 import os
+import signal
 import subprocess
 import time
 import urllib.parse
@@ -90,3 +91,62 @@ def test_stopping_writer_gone_and_kill_each_have_their_reason(free_domain, daemo
     assert ev["json"]["arrival"] == "back" and ev["json"]["away-since"]
     events.close()
     again.quit()
+
+
+def test_a_reload_lowering_a_device_cap_refuses_the_newest(free_domain, daemon, realdds_server, tmp_path):
+    """`refused`: a reload lowers max-devices-per-participant, then max-devices-per-domain.
+    The devices found last leave, each with its reason; those found first stay."""
+    dom = free_domain
+    config = tmp_path / "config.json"
+    config.write_text(json.dumps({"domains": [dom]}))
+    d = daemon([dom], http=False, extra=["--config", str(config)])
+    events = EventStream(d)
+    a, b, c = device_info(1), device_info(2), device_info(3)
+    two = realdds_server(dom, [a, b], name="bench-two")
+    one = realdds_server(dom, [c], name="bench-one")
+    found = []
+    while len(found) < 3:
+        ev = events.next(timeout=30)
+        if ev["event"] == "added":
+            found.append(ev["json"]["id"])
+    ids = {dds_id(dom, i) for i in (a, b, c)}
+    assert set(found) == ids
+
+    # One device per participant: of bench-two's pair, the one found later goes.
+    pair = [i for i in found if i in {dds_id(dom, a), dds_id(dom, b)}]
+    config.write_text(json.dumps({"domains": [dom], "max-devices-per-participant": 1}))
+    d.proc.send_signal(signal.SIGHUP)
+    ev, took = removed_within(events, pair[1], 10)
+    assert ev["json"]["reason"] == "refused", ev
+    print(f"reload (per-participant cap 1) -> removed(refused): {took:.3f} s")
+    assert sorted(d.device_ids()) == sorted(ids - {pair[1]})
+
+    # One device per domain: of the two left, the one found later goes.
+    left = [i for i in found if i != pair[1]]
+    config.write_text(json.dumps({"domains": [dom], "max-devices-per-domain": 1,
+                                  "max-devices-per-participant": 1}))
+    d.proc.send_signal(signal.SIGHUP)
+    ev, took = removed_within(events, left[1], 10)
+    assert ev["json"]["reason"] == "refused", ev
+    print(f"reload (domain cap 1) -> removed(refused): {took:.3f} s")
+    assert d.device_ids() == [left[0]]
+
+    hist = d.get_json(f"/v1/devices/{left[1]}/history")
+    assert hist["state"] == "gone" and hist["gone"]["reason"] == "refused", hist
+    assert "max-devices-per-domain is now 1" in hist["changes"][-1]["detail"], hist
+    assert 'rsd_device_removals_total{reason="refused"} 2' in d.request("/metrics")[2].decode()
+    log = d.log()
+    assert "removed (refused): max-devices-per-participant is now 1" in log
+    assert "device caps now 1 per participant, 1 per domain" in log
+    # The cap holds after the reload too: made anew (SIGUSR1), the participant hears
+    # every server announce again, and what the caps refused is counted, not listed.
+    def over_caps():
+        r = d.get_json("/v1/domains")["domains"][0]["rejected"]
+        return r.get("domain-device-limit", 0) + r.get("participant-device-limit", 0)
+    before = over_caps()
+    d.proc.send_signal(signal.SIGUSR1)
+    wait_for(lambda: over_caps() >= before + 2, timeout=20, what="the refused devices announced again, refused")
+    assert d.device_ids() == [left[0]]
+    events.close()
+    two.quit()
+    one.quit()

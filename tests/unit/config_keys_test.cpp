@@ -96,7 +96,7 @@ TEST(ConfigKeys, RestartOnlyIsWhatReloadWarnsAbout) {
   // What Service::reload says "takes effect on restart" for; the rest it applies live.
   const std::vector<std::string> restart_only{
       "socket", "socket-group", "http", "allowed-hosts", "max-clients", "share-usb", "participant-name", "cyclonedds-config",
-      "max-devices-per-participant", "max-devices-per-domain", "max-writers-per-participant",
+      "max-writers-per-participant",
       "max-writers-per-domain", "describe-timeout", "describe-eagerly", "removal-grace"};
   const Config running;
   Config all;

@@ -118,6 +118,34 @@ TEST_F(Book, CapsPerParticipantAndPerDomain) {
   EXPECT_TRUE(table.find(id("400")));
 }
 
+// A reload lowers a cap: the devices found last go, as `refused`; a device another
+// server still announces stays.
+TEST_F(Book, ALoweredCapRefusesTheDevicesFoundLast) {
+  using rsd::model::RemovalReason;
+  book.writer_matched(1, writer(1, 1), t0);
+  book.writer_matched(2, writer(2, 2), t0);
+  for (const char* serial : {"200", "201", "202"}) book.sample(1, info(serial));
+  book.sample(2, info("300"));
+  book.sample(2, info("200"));  // a second server of 200
+
+  const auto refused = book.set_device_caps(1, 5);
+  EXPECT_EQ(refused, (std::vector<std::string>{id("300"), id("202"), id("201")}));
+  for (const char* serial : {"201", "202", "300"}) EXPECT_EQ(table.find_gone(id(serial))->reason, RemovalReason::refused);
+  EXPECT_TRUE(table.find(id("200")));
+  EXPECT_EQ(status().devices, 1u);
+
+  // The lowered cap holds for what comes next, and raising it lets devices in again.
+  book.writer_matched(3, writer(3, 3), t0);
+  book.sample(3, info("400"));
+  EXPECT_TRUE(table.find(id("400")));
+  EXPECT_EQ(book.set_device_caps(1, 1), std::vector<std::string>{id("400")});
+  book.sample(3, info("400"));
+  EXPECT_EQ(status().rejected.at("domain-device-limit"), 1u);
+  EXPECT_TRUE(book.set_device_caps(3, 5).empty());
+  book.sample(3, info("400"));
+  EXPECT_TRUE(table.find(id("400")));
+}
+
 TEST_F(Book, MalformedInputIsCountedByReason) {
   book.writer_matched(1, writer(1, 1), t0);
   book.sample(1, rsd::dds::Rejected{"not-json", "x"});

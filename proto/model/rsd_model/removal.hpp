@@ -12,7 +12,8 @@ namespace rsd::model {
 // stopping: the server said so. writer-gone: its device-info writer went while its
 // participant stayed. lease-expired: its participant went silent (a crash, a hang,
 // a cut). unplugged: USB. interface-gone: the daemon left the network it was on.
-// domain-left: a reload dropped its domain. refused: a cap refused it.
+// domain-left: a reload dropped its domain. refused: a reload lowered a device cap
+// below what was listed.
 enum class RemovalReason { stopping, writer_gone, lease_expired, unplugged, interface_gone, domain_left, refused };
 
 inline constexpr std::array<RemovalReason, 7> kRemovalReasons{
