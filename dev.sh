@@ -158,8 +158,9 @@ case "${1:-}" in
     # libFuzzer binaries (clang, ASan + UBSan): only the fuzz targets and what they link.
     build_targets build-fuzz "fuzz_device_info fuzz_request fuzz_api_values fuzz_config fuzz_shared_usb fuzz_ros_discovery" \
       -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DRSD_LIBFUZZER=ON -DRSD_SANITIZE=ON -DRSD_BUILD_CLIENT=OFF
-    # ThreadSanitizer (tests/tsan/README.md): the daemon and the API harness only.
-    build_targets build-tsan "rs-discoveryd api_harness" -DRSD_TSAN=ON
+    # ThreadSanitizer (tests/tsan/README.md): the daemon and the API harness (and the CLI
+    # some of those suites drive; its own threads are not what is looked at).
+    build_targets build-tsan "rs-discoveryd api_harness rs-discover" -DRSD_TSAN=ON
     status=0
     say "fuzzing: each target replays its corpus, then runs for a few seconds"
     ctest --test-dir build-fuzz -L fuzz --output-on-failure || status=1

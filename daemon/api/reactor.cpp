@@ -45,6 +45,12 @@ void Reactor::run() {
     now = Clock::now();
     for (int i = 0; i < n; ++i) {
       auto* p = static_cast<Pollable*>(events[i].data.ptr);
+      // A connection closed earlier in this batch (a pump, a sweep) is freed and
+      // may still have an entry here: it is looked up before it is read.
+      const bool known = p == &wake_handle ||
+                         std::any_of(listeners.begin(), listeners.end(), [&](const auto& l) { return l.get() == p; }) ||
+                         conns.contains(static_cast<Connection*>(p));
+      if (!known) continue;
       switch (p->kind) {
         case Pollable::Kind::listener:
           accept_all(*static_cast<ListenerHandle*>(p), now);
@@ -64,9 +70,7 @@ void Reactor::run() {
           break;
         }
         case Pollable::Kind::connection: {
-          auto* c = static_cast<Connection*>(p);
-          // A connection closed earlier in this batch may still have an entry here.
-          if (conns.contains(c)) on_connection(*c, events[i].events, now);
+          on_connection(*static_cast<Connection*>(p), events[i].events, now);
           break;
         }
       }
