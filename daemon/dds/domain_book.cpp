@@ -503,6 +503,14 @@ std::optional<std::set<std::string>> DomainBook::servers_of(const std::string& t
   return out;
 }
 
+std::set<std::string> DomainBook::servers_to_hear() const {
+  std::set<std::string> out;
+  for (const auto& [id, device] : devices_)
+    for (const auto& [writer, server] : device.announcers) out.insert(participant_of(writer));
+  for (auto& guid : lost_.participants()) out.insert(std::move(guid));
+  return out;
+}
+
 void DomainBook::set_in_use(const std::string& topic_root, const model::InUse& in_use) {
   const std::string id = device_id(options_.domain, topic_root);
   const auto it = devices_.find(id);

@@ -169,6 +169,10 @@ class DomainBook {
   // The participants announcing the device `topic_root` (its servers: never its
   // clients); nothing when there is no such device.
   std::optional<std::set<std::string>> servers_of(const std::string& topic_root) const;
+  // The participants a new reader must not be made before: the servers of the
+  // devices kept and the lost servers (their broadcasts to a reader made before
+  // Cyclone knows their writers are lost for good).
+  std::set<std::string> servers_to_hear() const;
   // Who uses the device, in short, into its document (model::InUse; none while it has
   // no client). The table changes only when the summary does: a client's burst of
   // endpoints is one change.

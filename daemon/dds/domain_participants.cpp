@@ -227,6 +227,7 @@ void DomainSession::on_subscription_data(dds_entity_t reader, void* arg) {
 
 void DomainSession::take_endpoint_changes(dds_entity_t reader, bool readers) {
   const std::string now = SharedTable::now_iso8601();
+  bool device_info_writer = false;  // one the main loop may be waiting for (servers_heard)
   take_batches(reader, [&](std::span<void* const> samples, std::span<const dds_sample_info_t> infos) {
     std::vector<std::string> topics;  // touched by the batch: the cameras' summaries follow once, after it
     std::lock_guard lock(mutex_);
@@ -242,12 +243,14 @@ void DomainSession::take_endpoint_changes(dds_entity_t reader, bool readers) {
         const EndpointRefusal r = participants_.endpoint_alive(participant, guid, topic, readers, now);
         if (r != EndpointRefusal::none) refuse_endpoint(r, participant, topic.size());
         else topics.emplace_back(topic);
+        device_info_writer = device_info_writer || (!readers && topic == kDeviceInfoTopic);
       } else if (std::string topic = participants_.endpoint_gone(participant, guid); !topic.empty()) {
         topics.push_back(std::move(topic));
       }
     }
     update_in_use_of_topics(topics);
   });
+  if (device_info_writer) wake();
 }
 
 void DomainSession::on_ros_discovery_data(dds_entity_t reader, void* arg) {

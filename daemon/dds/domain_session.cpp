@@ -143,7 +143,8 @@ void DomainSession::start() {
   state_ = rebuilding_ ? DomainState::rebuilding : DomainState::settling;
   error_.clear();
   log::info(log::domain_prefix(d) + "joined as participant " + participant_guid_ +
-            "; reading device-info after " + std::to_string(options_.settle.count()) + " ms of discovery");
+            "; reading device-info after " + std::to_string(options_.settle.count()) +
+            " ms of discovery, or once the servers it waits for are heard");
 }
 
 void DomainSession::stop() {
@@ -284,12 +285,27 @@ MatchedWriters DomainSession::matched_writers(dds_entity_t reader) const {
   }
 }
 
+bool DomainSession::servers_heard() const {
+  // The settle time is a guess at when Cyclone knows the servers' writers; after
+  // a rebuild the daemon knows which servers it waits for, and the new participant
+  // says when it knows their writers. On a lossy link that is what keeps a camera
+  // heard again from waiting the whole settle time on top of its refresh.
+  std::lock_guard lock(mutex_);
+  const auto servers = book_.servers_to_hear();
+  return !servers.empty() && std::all_of(servers.begin(), servers.end(), [&](const std::string& p) {
+    return participants_.endpoints().writes(p, kDeviceInfoTopic);
+  });
+}
+
 DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   using namespace std::chrono;
   if (participant_ <= 0) return kIdle;  // nothing joined: a reload or rebuild starts it anew
   Clock::duration wait = std::min(kIdle, share_.tick(now));
   if (reader_ <= 0) {
-    if (now - joined_at_ < options_.settle) return std::min(wait, options_.settle - (now - joined_at_));
+    if (now - joined_at_ < options_.settle && !servers_heard())
+      return std::min(wait, options_.settle - (now - joined_at_));
+    log::debug(log::domain_prefix(options_.domain) + "reading device-info " +
+               std::to_string(duration_cast<milliseconds>(now - joined_at_).count()) + " ms after joining");
     create_reader();
   }
 

@@ -150,6 +150,9 @@ class DomainSession {
   void update_in_use(const std::set<std::string>& roots);
   // The same, for the cameras whose topics `topics` may be.
   void update_in_use_of_topics(const std::vector<std::string>& topics);
+  // Before the reader exists: whether every server it waits for has its
+  // device-info writer known to the participant (takes mutex_).
+  bool servers_heard() const;
   // Counts nothing itself (the book does); logs at a limited rate. Needs mutex_ held.
   void refuse_endpoint(EndpointRefusal r, const std::string& participant, std::size_t topic_length);
   void create_reader();

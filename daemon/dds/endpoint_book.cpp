@@ -121,6 +121,13 @@ std::size_t EndpointBook::count(const std::string& participant) const {
   return of == endpoints_.end() ? 0 : of->second.size();
 }
 
+bool EndpointBook::writes(const std::string& participant, std::string_view topic) const {
+  const auto t = topics_.find(topic);
+  if (t == topics_.end()) return false;
+  const auto p = t->second.find(participant);
+  return p != t->second.end() && p->second.writers > 0;
+}
+
 std::string_view EndpointBook::topic_of(const std::string& participant, const std::string& endpoint) const {
   const auto of = endpoints_.find(participant);
   if (of == endpoints_.end()) return {};

@@ -61,6 +61,8 @@ class EndpointBook {
   void clear();
 
   std::size_t count(const std::string& participant) const;
+  // Whether the participant has a writer on `topic` (kept with its topic).
+  bool writes(const std::string& participant, std::string_view topic) const;
   // The topic of one endpoint ("" when unknown or kept without it).
   std::string_view topic_of(const std::string& participant, const std::string& endpoint) const;
   std::size_t total() const { return total_; }

@@ -12,6 +12,10 @@ void LostServers::participant_alive(const std::string& guid, Clock::time_point n
 void LostServers::participant_gone(const std::string& guid, Clock::time_point now) {
   alive_.erase(guid);
   gone_at_[guid] = now;
+  if (auto it = lost_.find(guid); it != lost_.end()) {  // lost again, by this participant too
+    it->second.lost_here = true;
+    it->second.heard_at.reset();
+  }
 }
 
 void LostServers::participant_rebuilt() {
@@ -19,22 +23,20 @@ void LostServers::participant_rebuilt() {
   suspects_.clear();
   gone_at_.clear();
   reading_since_.reset();
-  for (auto& [guid, lost] : lost_) lost.heard_at.reset();  // the new participant hears it anew
+  for (auto& [guid, lost] : lost_) {  // the new participant hears it anew, without stale state
+    lost.heard_at.reset();
+    lost.lost_here = false;
+  }
+}
+
+std::vector<std::string> LostServers::participants() const {
+  std::vector<std::string> out;
+  for (const auto& [guid, lost] : lost_) out.push_back(guid);
+  return out;
 }
 
 void LostServers::writer_lost(const std::string& participant, Clock::time_point now) {
   if (!lost_.count(participant)) suspects_.emplace(participant, now);
-}
-
-LostServers::Clock::duration LostServers::heard_wait(const Lost& lost) const {
-  if (lost.heard_refreshes < times_.heard_refreshes || !last_refresh_) return Clock::duration::zero();
-  auto wait = times_.heard_backoff;
-  for (int i = times_.heard_refreshes; i < lost.heard_refreshes && wait < times_.heard_backoff_max; ++i) wait *= 2;
-  return std::min(wait, times_.heard_backoff_max);
-}
-
-bool LostServers::heard_refresh_allowed(const Lost& lost, Clock::time_point now) const {
-  return !last_refresh_ || now - *last_refresh_ >= heard_wait(lost);
 }
 
 std::optional<LostServers::Clock::time_point> LostServers::next_check(Clock::time_point now) const {
@@ -47,9 +49,8 @@ std::optional<LostServers::Clock::time_point> LostServers::next_check(Clock::tim
   for (const auto& [guid, lost] : lost_) {
     consider(lost.lost_at + times_.forget_after);
     consider(lost.next_refresh);
-    if (!lost.heard_at || !reading_since_) continue;
-    const auto stale_at = std::max(*lost.heard_at, *reading_since_) + times_.rematch_grace;
-    consider(last_refresh_ ? std::max(stale_at, *last_refresh_ + heard_wait(lost)) : stale_at);
+    if (!lost.lost_here || !lost.heard_at || !reading_since_) continue;
+    consider(std::max(*lost.heard_at, *reading_since_) + times_.rematch_grace);
   }
   return next;
 }
@@ -71,8 +72,9 @@ LostServers::Verdict LostServers::check(Clock::time_point now) {
       // 100 ms after the first): its count goes on from that one.
       const bool served = last_refresh_ && *last_refresh_ >= it->second;
       const std::optional<Clock::time_point> heard = alive ? std::optional(now) : std::nullopt;
-      lost_[it->first] = served ? Lost{it->second, *last_refresh_ + times_.refresh_again, 1, heard, 0}
-                                : Lost{it->second, it->second + times_.refresh_first, 0, heard, 0};
+      // Served: the participant that lost it is gone already.
+      lost_[it->first] = served ? Lost{it->second, *last_refresh_ + times_.refresh_again, 1, heard, false}
+                                : Lost{it->second, it->second + times_.refresh_first, 0, heard, true};
       verdict.newly_lost.push_back(it->first);
     }
     it = suspects_.erase(it);
@@ -86,11 +88,10 @@ LostServers::Verdict LostServers::check(Clock::time_point now) {
     }
     Lost& lost = it->second;
     const bool blind = now >= lost.next_refresh;
-    // Heard again, with a reader to hear its devices on, and still lost after the grace.
-    const bool stale = lost.heard_at && reading_since_ &&
-                       now - std::max(*lost.heard_at, *reading_since_) >= times_.rematch_grace &&
-                       heard_refresh_allowed(lost, now);
-    if (stale) ++lost.heard_refreshes;
+    // Heard again by the participant that lost it, with a reader to hear its
+    // devices on, and still lost after the grace.
+    const bool stale = lost.lost_here && lost.heard_at && reading_since_ &&
+                       now - std::max(*lost.heard_at, *reading_since_) >= times_.rematch_grace;
     verdict.refresh = verdict.refresh || blind || stale;
     ++it;
   }

@@ -26,15 +26,12 @@ struct LostServerTimes {
   // than `forget_after` is given up (a crashed one comes back under another GUID).
   std::chrono::milliseconds refresh_first{30000};
   std::chrono::milliseconds rematch_grace{500};
-  // Per lost server, `heard_refreshes` come at once; later ones wait
-  // `heard_backoff`, doubling up to `heard_backoff_max`, since the last refresh,
-  // so a peer that never rematches can't loop us. They are not given up: on a
-  // lossy link (measured: 50 % UDP loss both ways) the first few are spent while
-  // the loss lasts, and the server must still be found soon after the link is
-  // good again (within the cap: 30 s).
-  int heard_refreshes = 3;
-  std::chrono::milliseconds heard_backoff{std::chrono::seconds(4)};
-  std::chrono::milliseconds heard_backoff_max{std::chrono::seconds(30)};
+  // Only the participant that lost the server keeps that stale state: a fresh one
+  // that hears it is left to match its writers, however long a lossy link makes
+  // that take, and is refreshed again only if it loses the server too (its lease
+  // ran out there as well). So no back-off is needed against a peer that never
+  // rematches, and a camera heard again on a lossy link is never kept waiting
+  // for one: at most one refresh per loss, each rematch_grace after the hearing.
   std::chrono::milliseconds refresh_again{std::chrono::seconds(120)};
   std::chrono::milliseconds refresh_max{std::chrono::minutes(10)};
   std::chrono::milliseconds forget_after{std::chrono::minutes(30)};
@@ -81,6 +78,7 @@ class LostServers {
   std::optional<Clock::time_point> next_check(Clock::time_point now) const;
 
   std::size_t size() const { return lost_.size(); }
+  std::vector<std::string> participants() const;  // the lost servers' GUIDs
   bool lost(const std::string& participant) const { return lost_.count(participant) > 0; }
 
  private:
@@ -89,11 +87,8 @@ class LostServers {
     Clock::time_point next_refresh;  // blind
     int refreshes = 0;               // blind ones
     std::optional<Clock::time_point> heard_at;  // its participant is alive again
-    int heard_refreshes = 0;
+    bool lost_here = true;  // by the current participant, which keeps stale state for it
   };
-
-  bool heard_refresh_allowed(const Lost& lost, Clock::time_point now) const;
-  Clock::duration heard_wait(const Lost& lost) const;  // since the last refresh
 
   LostServerTimes times_;
   std::set<std::string> alive_;                         // participants Cyclone sees now
