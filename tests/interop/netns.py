@@ -64,6 +64,20 @@ class TwoHosts:
         self.exec(self.camera, "nft", "delete", "table", "inet", "rsdcut")
         self.cut_active = False
 
+    def lose(self, percent):
+        """Drops `percent` % of the UDP packets on the camera's link, each way, at
+        random (nftables numgen): a lossy link, not a cut."""
+        self.exec(self.camera, "nft", "-f", "-", input=(
+            "table inet rsdloss {\n"
+            f"  chain in {{ type filter hook input priority -10; iifname \"rsdv1\" meta l4proto udp "
+            f"numgen random mod 100 < {int(percent)} drop; }}\n"
+            f"  chain out {{ type filter hook output priority -10; oifname \"rsdv1\" meta l4proto udp "
+            f"numgen random mod 100 < {int(percent)} drop; }}\n"
+            "}\n"))
+
+    def unlose(self):
+        self.exec(self.camera, "nft", "delete", "table", "inet", "rsdloss")
+
     def destroy(self):
         for ns in (self.host, self.camera):
             subprocess.run(["ip", "netns", "del", ns], capture_output=True)
