@@ -1,4 +1,4 @@
-// rs-discover doctor's word on USB sharing (issue 25): which hosts' daemons share
+// rs-discover doctor's word on USB sharing (docs/sharing.md): which hosts' daemons share
 // their USB cameras with this one (the remote-usb cameras it lists, by host), and
 // which other daemons it hears share none.
 #include "doctor.hpp"

@@ -118,8 +118,8 @@ bool answers(const std::string& endpoint) {
 
 }  // namespace
 
-// What to do when the daemon could not be asked: by the cause (issue 23: a user
-// without rights on the socket was told to start a daemon that runs).
+// What to do when the daemon could not be asked, by the cause: a user without
+// rights on the socket must not be told to start a daemon that runs.
 std::string unreachable_hint(const rsdiscovery::Error& e, const rsdiscovery::Endpoint& endpoint) {
   // The first address a daemon answers at, else the likeliest one: named either way.
   std::string http;

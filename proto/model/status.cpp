@@ -96,7 +96,7 @@ DomainStatus domain_status_from_json(const nlohmann::json& doc) {
   s.rebuilds = count(doc, key::rebuilds, what);
   s.refreshes = count(doc, key::refreshes, what);
   s.lost_servers = count(doc, key::lost_servers, what);
-  // Since the writer caps (issue 20); a daemon from before them leaves them out.
+  // A daemon from before the writer caps leaves them out.
   if (doc.contains(key::writers)) s.writers = count(doc, key::writers, what);
   if (const auto it = doc.find(key::writers_refused); it != doc.end()) {
     if (!it->is_object()) throw MalformedDocument("a domain entry's \"writers-refused\" is not an object");
@@ -107,7 +107,7 @@ DomainStatus domain_status_from_json(const nlohmann::json& doc) {
     if (!it->is_object()) throw MalformedDocument("a domain entry's \"endpoints-refused\" is not an object");
     for (const auto& [reason, n] : it->items()) s.endpoints_refused[reason] = count_value(n, reason, what);
   }
-  // Since the daemon follows the host's network (issue 21); absent before.
+  // A daemon from before it followed the host's network leaves them out.
   if (const auto it = doc.find(key::interfaces); it != doc.end()) {
     if (!it->is_array()) throw MalformedDocument("a domain entry's \"interfaces\" is not a list");
     for (const auto& i : *it) {

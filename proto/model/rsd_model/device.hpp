@@ -53,7 +53,7 @@ inline constexpr const char* device_nodes = "device-nodes";
 }  // namespace key
 
 // remote_usb ("remote-usb"): a camera plugged into another host's USB, which that
-// host's daemon shares over DDS (issue 25). Never merged with a local sighting.
+// host's daemon shares over DDS (docs/sharing.md). Never merged with a local sighting.
 enum class Source { dds, usb, remote_usb };
 const char* to_string(Source source);
 std::optional<Source> parse_source(std::string_view text);  // exact: "dds", "usb", "remote-usb"

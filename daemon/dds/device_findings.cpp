@@ -1,0 +1,85 @@
+// DomainBook's reads of its devices (their announcements in the camera's own
+// words, their servers) and the daemon's own findings on them (who uses a device,
+// whether it is ready), which the camera's announcements never overwrite.
+#include "dds/domain_book.hpp"
+
+#include "log/log.hpp"
+
+namespace rsd::dds {
+
+namespace {
+
+// A device's announcement in the camera's own words: what the daemon adds (its
+// clients, whether it is ready or unresponsive) changes no description, so it must
+// not look like a new announcement to the fetcher.
+nlohmann::json own_words(model::Device doc) {
+  doc.in_use.reset();
+  doc.ready.reset();
+  doc.ready_stage.reset();
+  doc.unresponsive.reset();
+  return model::to_json(doc);
+}
+
+}  // namespace
+
+std::optional<nlohmann::json> DomainBook::announcement(const std::string& topic_root) const {
+  const auto it = devices_.find(device_id(options_.domain, topic_root));
+  if (it == devices_.end()) return std::nullopt;
+  return own_words(it->second.doc);
+}
+
+std::map<std::string, nlohmann::json> DomainBook::announcements() const {
+  std::map<std::string, nlohmann::json> out;
+  for (const auto& [id, device] : devices_)
+    if (device.doc.topic_root) out.emplace(*device.doc.topic_root, own_words(device.doc));
+  return out;
+}
+
+std::optional<std::set<std::string>> DomainBook::servers_of(const std::string& topic_root) const {
+  const auto it = devices_.find(device_id(options_.domain, topic_root));
+  if (it == devices_.end()) return std::nullopt;
+  std::set<std::string> out;
+  for (const auto& [writer, server] : it->second.announcers) out.insert(participant_of(writer));
+  return out;
+}
+
+std::set<std::string> DomainBook::servers_to_hear() const {
+  std::set<std::string> out;
+  for (const auto& [id, device] : devices_)
+    for (const auto& [writer, server] : device.announcers) out.insert(participant_of(writer));
+  for (auto& guid : lost_.participants()) out.insert(std::move(guid));
+  return out;
+}
+
+void DomainBook::set_in_use(const std::string& topic_root, const model::InUse& in_use) {
+  const std::string id = device_id(options_.domain, topic_root);
+  const auto it = devices_.find(id);
+  if (it == devices_.end()) return;
+  std::optional<model::InUse> now;
+  if (in_use.clients > 0) now = in_use;
+  if (it->second.doc.in_use == now) return;
+  it->second.doc.in_use = std::move(now);
+  table_.upsert(id, model::to_json(it->second.doc), /*heard=*/false);  // a client came, not the camera
+}
+
+void DomainBook::set_readiness(const std::string& topic_root, bool ready, const std::string& stage) {
+  const std::string id = device_id(options_.domain, topic_root);
+  const auto it = devices_.find(id);
+  if (it == devices_.end()) return;
+  model::Device& doc = it->second.doc;
+  const std::optional<std::string> now_stage = ready ? std::nullopt : std::optional<std::string>(stage);
+  if (doc.ready == ready && doc.ready_stage == now_stage) return;
+  if (!ready) log::warning(prefix() + "device " + id + " is not ready: its notification set got as far as " + stage);
+  doc.ready = ready;
+  doc.ready_stage = now_stage;
+  table_.upsert(id, model::to_json(doc), /*heard=*/false);  // the daemon's finding, not the camera's word
+}
+
+std::set<std::string> DomainBook::topic_roots() const {
+  std::set<std::string> out;
+  for (const auto& [id, device] : devices_)
+    if (device.doc.topic_root) out.insert(*device.doc.topic_root);
+  return out;
+}
+
+}  // namespace rsd::dds
