@@ -302,10 +302,11 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   if (participant_ <= 0) return kIdle;  // nothing joined: a reload or rebuild starts it anew
   Clock::duration wait = std::min(kIdle, share_.tick(now));
   if (reader_ <= 0) {
-    if (now - joined_at_ < options_.settle && !servers_heard())
-      return std::min(wait, options_.settle - (now - joined_at_));
-    log::debug(log::domain_prefix(options_.domain) + "reading device-info " +
-               std::to_string(duration_cast<milliseconds>(now - joined_at_).count()) + " ms after joining");
+    const bool heard = servers_heard();
+    if (now - joined_at_ < options_.settle && !heard) return std::min(wait, options_.settle - (now - joined_at_));
+    log::info(log::domain_prefix(options_.domain) + "reading device-info " +
+              std::to_string(duration_cast<milliseconds>(now - joined_at_).count()) + " ms after joining" +
+              (heard ? " (every server it waits for is heard)" : ""));
     create_reader();
   }
 
