@@ -76,7 +76,10 @@ def test_writer_caps_refuse_and_count(free_domain, daemon, writers):
                                      "--max-writers-per-domain", "700"])
     proc = writers(free_domain, 3, 400)
     wait_for(lambda: count_devices(d) == 700, timeout=120, interval=0.5, what="700 cameras (the domain's writer cap)")
-    entry = domain_entry(d)
+    # The caps fill before every writer is discovered: the last refusals come after the
+    # 700th camera is listed, so wait for all 500 of them.
+    entry = wait_for(lambda: (lambda e: e if sum(e["writers-refused"].values()) >= 500 else None)(domain_entry(d)),
+                     timeout=60, interval=0.5, what="all 500 writers beyond the caps refused")
     assert entry["device-info-writers"] == 700
     refused = entry["writers-refused"]
     assert sum(refused.values()) == 500, refused
