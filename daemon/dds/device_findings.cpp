@@ -59,7 +59,7 @@ void DomainBook::set_in_use(const std::string& topic_root, const model::InUse& i
   if (in_use.clients > 0) now = in_use;
   if (it->second.doc.in_use == now) return;
   it->second.doc.in_use = std::move(now);
-  table_.upsert(id, model::to_json(it->second.doc), /*heard=*/false);  // a client came, not the camera
+  table_.upsert(id, it->second.doc, /*heard=*/false);  // a client came, not the camera
 }
 
 void DomainBook::set_readiness(const std::string& topic_root, bool ready, const std::string& stage) {
@@ -72,7 +72,7 @@ void DomainBook::set_readiness(const std::string& topic_root, bool ready, const 
   if (!ready) log::warning(prefix() + "device " + id + " is not ready: its notification set got as far as " + stage);
   doc.ready = ready;
   doc.ready_stage = now_stage;
-  table_.upsert(id, model::to_json(doc), /*heard=*/false);  // the daemon's finding, not the camera's word
+  table_.upsert(id, doc, /*heard=*/false);  // the daemon's finding, not the camera's word
 }
 
 std::set<std::string> DomainBook::topic_roots() const {

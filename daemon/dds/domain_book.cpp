@@ -108,24 +108,29 @@ void DomainBook::sample(Handle handle, Parsed parsed) {
       }
     }
   }
-  // The device-info verbatim, with what the daemon adds, through the API's model.
+  // The device-info verbatim, read once into the API's model, with what the daemon
+  // adds. What the daemon says of a camera (its server, who uses it, whether it is
+  // ready or unresponsive) is never taken from the camera's own message.
+  for (const char* daemons : {model::key::server, model::key::unresponsive, model::key::in_use, model::key::ready,
+                              model::key::ready_stage})
+    info.fields.erase(daemons);
   model::Device device = model::device_from_json(info.fields);
   device.source = model::Source::dds;
   device.domain = options_.domain;
   device.topic_root = info.topic_root;
   device.recovery = device.recovery.value_or(false);
   ++accepted_;
-  announce(id, writer, model::to_json(device));
+  announce(id, writer, std::move(device));
 }
 
-void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann::json doc) {
+void DomainBook::announce(const std::string& id, const Writer* writer, model::Device doc) {
   Announced& device = devices_[id];
   if (device.found == 0) device.found = ++devices_found_;
-  nlohmann::json server = nlohmann::json::object();
+  doc.server = model::Server{};
   if (writer) {
     const WriterIdentity& w = writer->identity;
     model::Server typed{w.participant_guid, w.participant_name, w.addresses, w.guid};
-    server = model::to_json(typed);
+    doc.server = typed;
     lost_.announced(w.participant_guid);  // found again, if it was lost
     auto& list = device.announcers;
     const auto it = std::find_if(list.begin(), list.end(), [&](const auto& a) { return a.first == w.guid; });
@@ -134,19 +139,13 @@ void DomainBook::announce(const std::string& id, const Writer* writer, nlohmann:
     list.emplace_back(w.guid, std::move(typed));  // the latest announcer is shown
     devices_of_writer_[w.guid].insert(id);
   }
-  doc[model::key::server] = std::move(server);
-  doc.erase(model::key::unresponsive);  // the daemon's to say, as in-use
   if (unresponsive_.erase(id)) log::info(prefix() + "device " + id + " heard again within the removal grace: kept");
-  // Who uses it is the daemon's to say (a device-info's own "in-use" is not kept),
-  // and stays across announcements.
-  if (device.doc.in_use) doc[model::key::in_use] = model::to_json(*device.doc.in_use);
-  else doc.erase(model::key::in_use);
-  // So is whether it is ready, known until a fetch for the new announcement concludes.
-  doc.erase(model::key::ready);
-  doc.erase(model::key::ready_stage);
-  if (device.doc.ready) doc[model::key::ready] = *device.doc.ready;
-  if (device.doc.ready_stage) doc[model::key::ready_stage] = *device.doc.ready_stage;
-  device.doc = model::device_from_json(doc);
+  // Who uses it stays across announcements; so does whether it is ready, known until a
+  // fetch for the new announcement concludes.
+  doc.in_use = device.doc.in_use;
+  doc.ready = device.doc.ready;
+  doc.ready_stage = device.doc.ready_stage;
+  device.doc = doc;
   if (auto ev = table_.upsert(id, std::move(doc)); ev && ev->type == EventType::added)
     log::info(prefix() + "device " + id + " added (from " + (writer ? writer->identity.guid : "unknown writer") +
               ")");
@@ -189,7 +188,7 @@ bool DomainBook::drop_announcer(const std::string& id, const std::string& writer
     dev->second.doc.server = list.back().second;
     log::info(prefix() + "device " + id + " now served by writer " + list.back().first + " (" + writer_guid +
               " left: " + why + ")");
-    table_.upsert(id, model::to_json(dev->second.doc));
+    table_.upsert(id, dev->second.doc);
   }
   return false;
 }

@@ -208,7 +208,7 @@ class DomainBook {
     std::vector<std::pair<std::string, model::Server>> announcers;
   };
 
-  void announce(const std::string& id, const Writer* writer, nlohmann::json doc);
+  void announce(const std::string& id, const Writer* writer, model::Device doc);
   void stopping(const std::string& topic_root, const Writer* writer);
   // Drops one announcer of `id`; the device leaves the table with its last one,
   // else shows the latest remaining announcer. Returns whether it left.

@@ -14,7 +14,7 @@ void DomainBook::mark_unresponsive(const std::string& id, Clock::time_point now)
   log::info(prefix() + "device " + id + " unresponsive (its server's lease expired): removed in " +
             std::to_string(std::chrono::duration_cast<std::chrono::seconds>(options_.removal_grace).count()) +
             " s unless heard again");
-  table_.upsert(id, model::to_json(device.doc), /*heard=*/false);  // last-seen: when it was last heard
+  table_.upsert(id, device.doc, /*heard=*/false);  // last-seen: when it was last heard
 }
 
 void DomainBook::end_graces(Clock::time_point now) {

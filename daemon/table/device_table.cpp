@@ -33,13 +33,10 @@ nlohmann::json DeviceEvent::device() const { return entry ? entry->json() : nloh
 
 namespace {
 // Two documents describe the same state when they differ only in the timestamps.
-bool same_but_timestamps(const nlohmann::json& a, const nlohmann::json& b) {
-  nlohmann::json x = a, y = b;
-  for (auto* d : {&x, &y}) {
-    d->erase(DeviceTable::kFirstSeen);
-    d->erase(DeviceTable::kLastSeen);
-  }
-  return x == y;
+bool same_but_timestamps(const model::Device& a, model::Device b) {
+  b.first_seen = a.first_seen;
+  b.last_seen = a.last_seen;
+  return a == b;
 }
 
 // Milliseconds since the epoch of a time in the form of first-seen/last-seen; nothing
@@ -62,10 +59,20 @@ std::pair<std::size_t, std::string> source_rank(const std::string& source) {
   return {std::numeric_limits<std::size_t>::max(), source};
 }
 
-// The entry readers get: typed once and serialized once, here, per change.
-EntryPtr make_entry(const nlohmann::json& doc) {
-  return std::make_shared<const TableEntry>(
-      TableEntry{model::device_from_json(doc), doc.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)});
+// The entry readers get: serialized once, here, per change.
+EntryPtr make_entry(model::Device device) {
+  std::string text = model::to_json(device).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  return std::make_shared<const TableEntry>(TableEntry{std::move(device), std::move(text)});
+}
+
+// A key the table owns, cleared from a source's sighting: typed, and from `extra`
+// (where a value of another type than the model's would be).
+void clear_owned(model::Device& d) {
+  d.sources.clear();
+  d.merged_into.reset();
+  for (const char* k : {model::key::id, model::key::sources, model::key::merged_into, model::key::first_seen,
+                        model::key::last_seen, model::key::reason, model::key::arrival, model::key::away_since})
+    d.extra.erase(k);
 }
 
 const std::string* string_field(const nlohmann::json& doc, const char* key) {
@@ -146,8 +153,15 @@ DeviceTable::Layout DeviceTable::layout(const std::set<std::string>& sightings) 
   return out;
 }
 
-nlohmann::json DeviceTable::build_entry(const std::vector<std::string>& members) const {
-  nlohmann::json entry = model::to_json(sightings_.at(members.front()));
+model::Device DeviceTable::build_entry(const std::vector<std::string>& members) const {
+  const model::Device& primary = sightings_.at(members.front());
+  // The common case, a camera seen by one source the model knows: the sighting itself.
+  if (members.size() == 1 && (primary.source || !primary.extra.contains(model::key::source))) {
+    model::Device entry = primary;
+    if (primary.source) entry.sources = {*primary.source};
+    return entry;
+  }
+  nlohmann::json entry = model::to_json(primary);
   const bool sourced = string_field(entry, model::key::source) != nullptr;
   std::set<std::string> sources;
   if (sourced) sources.insert(*string_field(entry, model::key::source));
@@ -166,7 +180,7 @@ nlohmann::json DeviceTable::build_entry(const std::vector<std::string>& members)
     if (last > entry.value(kLastSeen, last)) entry[kLastSeen] = last;
   }
   if (sourced) entry[kSources] = sources;
-  return entry;
+  return model::device_from_json(entry);
 }
 
 std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& affected,
@@ -186,9 +200,9 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
     bool merged = false;
     for (const auto& [id, members] : next)
       if (std::find(members.begin(), members.end(), entry_id) != members.end()) {
-        nlohmann::json doc = model::to_json(removed.entry->device);
-        doc[kMergedInto] = id;
-        removed.entry = make_entry(doc);
+        model::Device doc = removed.entry->device;
+        doc.merged_into = id;
+        removed.entry = make_entry(std::move(doc));
         merged = true;
       }
     // A merge is no departure: the camera is still listed, under the entry it joined.
@@ -207,12 +221,12 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
   }
   for (const auto& [entry_id, members] : next) {
     for (const auto& m : members) owner_[m] = entry_id;
-    nlohmann::json doc = build_entry(members);
+    model::Device doc = build_entry(members);
     auto it = devices_.find(entry_id);
     if (it == devices_.end()) {
       DeviceEvent added;
       added.type = EventType::added;
-      added.entry = devices_.emplace(entry_id, make_entry(doc)).first->second;
+      added.entry = devices_.emplace(entry_id, make_entry(std::move(doc))).first->second;
       bool flap = false;
       if (const auto gone = gone_.find(entry_id); gone != gone_.end()) {
         added.back = true;
@@ -232,8 +246,8 @@ std::vector<DeviceEvent> DeviceTable::reconcile(const std::set<std::string>& aff
                                    events.back().back, flap, {}, {}});
       continue;
     }
-    const bool changed = !same_but_timestamps(model::to_json(it->second->device), doc);
-    EntryPtr before = std::exchange(it->second, make_entry(doc));
+    const bool changed = !same_but_timestamps(it->second->device, doc);
+    EntryPtr before = std::exchange(it->second, make_entry(std::move(doc)));
     if (changed) events.push_back(record(EventType::changed, it->second, std::move(before)));
   }
   return events;
@@ -246,24 +260,25 @@ std::optional<DeviceEvent> DeviceTable::event_for(const std::vector<DeviceEvent>
   return std::nullopt;
 }
 
-std::optional<DeviceEvent> DeviceTable::upsert(const std::string& id, nlohmann::json doc,
+std::optional<DeviceEvent> DeviceTable::upsert(const std::string& id, const nlohmann::json& doc,
                                                const std::string& now, bool heard) {
-  if (!doc.is_object()) doc = nlohmann::json::object();
-  doc.erase(kSources);
-  doc.erase(kMergedInto);
-  for (const char* event_key : {model::key::reason, model::key::arrival, model::key::away_since}) doc.erase(event_key);
-  doc[model::key::id] = id;
-  doc[kLastSeen] = now;
+  return upsert(id, doc.is_object() ? model::device_from_json(doc) : model::Device{}, now, heard);
+}
+
+std::optional<DeviceEvent> DeviceTable::upsert(const std::string& id, model::Device sighting, const std::string& now,
+                                               bool heard) {
+  clear_owned(sighting);
+  sighting.id = id;
+  sighting.last_seen = now;
   std::set<std::string> affected = group_of(id);
   auto old = sightings_.find(id);
   if (old == sightings_.end()) {
-    doc[kFirstSeen] = now;
+    sighting.first_seen = now;
   } else {
-    doc[kFirstSeen] = old->second.first_seen.value_or(now);
-    if (!heard && old->second.last_seen) doc[kLastSeen] = *old->second.last_seen;
+    sighting.first_seen = old->second.first_seen.value_or(now);
+    if (!heard && old->second.last_seen) sighting.last_seen = *old->second.last_seen;
     index(id, old->second, false);
   }
-  model::Device sighting = model::device_from_json(doc);
   index(id, sighting, true);
   sightings_[id] = std::move(sighting);
   for (const auto& other : group_of(id)) affected.insert(other);

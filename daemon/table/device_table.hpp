@@ -172,7 +172,10 @@ class DeviceTable {
   // (see above): all go to the change log; the others are not returned.
   // `heard`: the source heard the device now, so last-seen moves; false for what the
   // daemon itself says of it meanwhile (unresponsive, in-use), which keeps last-seen.
-  std::optional<DeviceEvent> upsert(const std::string& id, nlohmann::json doc,
+  std::optional<DeviceEvent> upsert(const std::string& id, model::Device doc, const std::string& now_iso8601,
+                                    bool heard = true);
+  // The same for a source that holds its device as JSON (read once into the model).
+  std::optional<DeviceEvent> upsert(const std::string& id, const nlohmann::json& doc,
                                     const std::string& now_iso8601, bool heard = true);
 
   // Removes the device (sighting) for `reason`; nothing happens (and no event) when it
@@ -235,7 +238,7 @@ class DeviceTable {
   void index(const std::string& id, const model::Device& sighting, bool add);
   std::set<std::string> group_of(const std::string& sighting_id) const;
   Layout layout(const std::set<std::string>& sightings) const;
-  nlohmann::json build_entry(const std::vector<std::string>& members) const;
+  model::Device build_entry(const std::vector<std::string>& members) const;
   // Re-derives the entries of `affected` sightings; `old_entries` are the entry ids
   // they had before the change. Emits events; returns them in log order.
   std::vector<DeviceEvent> reconcile(const std::set<std::string>& affected,

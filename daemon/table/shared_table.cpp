@@ -21,7 +21,11 @@ void SharedTable::remove_change_hook(HookId id) {
   hooks_.erase(id);
 }
 
-std::optional<DeviceEvent> SharedTable::upsert(const std::string& id, nlohmann::json doc, bool heard) {
+std::optional<DeviceEvent> SharedTable::upsert(const std::string& id, const nlohmann::json& doc, bool heard) {
+  return upsert(id, doc.is_object() ? model::device_from_json(doc) : model::Device{}, heard);
+}
+
+std::optional<DeviceEvent> SharedTable::upsert(const std::string& id, model::Device doc, bool heard) {
   std::optional<DeviceEvent> event;
   {
     std::lock_guard lock(mutex_);

@@ -25,7 +25,8 @@ class SharedTable {
                        HistoryLimits limits = {})
       : table_(log_capacity, first_generation, 128 * 1024, limits), generation_(first_generation) {}
 
-  std::optional<DeviceEvent> upsert(const std::string& id, nlohmann::json doc, bool heard = true);
+  std::optional<DeviceEvent> upsert(const std::string& id, model::Device doc, bool heard = true);
+  std::optional<DeviceEvent> upsert(const std::string& id, const nlohmann::json& doc, bool heard = true);
   // DeviceTable::remove, now; gone entries older than HistoryLimits::gone_keep go too.
   std::optional<DeviceEvent> remove(const std::string& id, model::RemovalReason reason, std::string detail = {});
   std::optional<DeviceEvent> note_described(const std::string& id);

@@ -202,3 +202,26 @@ TEST(DeviceTable, TheTextReplacesInvalidUtf8AndTheTypedDeviceKeepsIt) {
   EXPECT_EQ(t.find("a")->device.name, std::string("D455\xff"));
   EXPECT_NE(t.find("a")->text.find("\"D455\xef\xbf\xbd\""), std::string::npos);  // U+FFFD
 }
+
+TEST(DeviceTable, ATypedSightingMakesTheEntryItsJsonWould) {
+  // A DDS source hands the table its model::Device, USB its JSON: one entry either way.
+  // Keys the table owns are its own however a source spells them.
+  json doc = d455();
+  doc["first-seen"] = 5;
+  doc["sources"] = "usb";
+  doc["merged-into"] = json::array();
+  doc["reason"] = "stopping";
+  doc["source"] = "dds";
+  DeviceTable by_json, typed;
+  by_json.upsert("a", doc, "T1");
+  typed.upsert("a", rsd::model::device_from_json(doc), "T1");
+  EXPECT_EQ(typed.find("a")->text, by_json.find("a")->text);
+  const json entry = typed.find("a")->json();
+  EXPECT_EQ(entry["first-seen"], "T1");
+  EXPECT_EQ(entry["sources"], json::array({"dds"}));
+  EXPECT_FALSE(entry.contains("merged-into"));
+  EXPECT_FALSE(entry.contains("reason"));
+  // The same device again is no change, typed as well.
+  EXPECT_FALSE(typed.upsert("a", rsd::model::device_from_json(doc), "T2"));
+  EXPECT_EQ(typed.find("a")->device.last_seen, "T2");
+}

@@ -49,6 +49,21 @@ struct Book : ::testing::Test {
 
 }  // namespace
 
+TEST_F(Book, WhatTheDaemonSaysOfACameraIsNeverTakenFromItsMessage) {
+  book.writer_matched(1, writer(1, 1), t0);
+  auto parsed = info("100");
+  std::get<rsd::dds::DeviceInfo>(parsed).fields.update({{"server", "me"},
+                                                        {"in-use", {{"clients", 9}, {"streaming", {"Depth"}}}},
+                                                        {"ready", false},
+                                                        {"ready-stage", "stream 1 of 3"},
+                                                        {"unresponsive", true}});
+  book.sample(1, std::move(parsed));
+  const auto dev = table.find(id("100"));
+  ASSERT_TRUE(dev);
+  EXPECT_EQ((*dev)["server"]["participant-name"], "server-1");
+  for (const char* key : {"in-use", "ready", "ready-stage", "unresponsive"}) EXPECT_FALSE(dev->contains(key)) << key;
+}
+
 TEST_F(Book, AnnouncedDeviceCarriesItsServer) {
   book.writer_matched(1, writer(1, 1), t0);
   book.sample(1, info("100"));

@@ -70,6 +70,7 @@ struct Server {
   std::optional<std::string> participant_name;
   std::optional<std::vector<std::string>> addresses;
   std::optional<std::string> writer_guid;
+  bool operator==(const Server&) const = default;
 };
 
 // Where a USB device is plugged, from its descriptor and sysfs.
@@ -83,6 +84,7 @@ struct Usb {
   std::optional<std::string> usb_version;  // "3.20"
   std::optional<std::string> sysfs_path;
   std::vector<std::string> device_nodes;  // /dev/bus/usb/BBB/DDD first; empty: not written
+  bool operator==(const Usb&) const = default;
 };
 
 // The host whose daemon shares a remote-usb camera: the name it gives, the
@@ -91,6 +93,7 @@ struct Host {
   std::string name;
   std::vector<std::string> addresses;
   std::optional<std::string> participant_guid;
+  bool operator==(const Host&) const = default;
 };
 
 // Who uses a DDS camera, in short: its clients (participants other than its server on
@@ -102,6 +105,10 @@ struct InUse {
 };
 
 struct Device {
+  // Declared, so that a Device is never built from a brace list: `{{"name", "x"}}` is a
+  // JSON document wherever both are taken (DeviceTable::upsert).
+  Device() = default;
+
   std::string id;  // empty in a source's sighting: the table sets it
   std::optional<Source> source;
   std::vector<Source> sources;  // set by the table; empty: not written
@@ -134,6 +141,8 @@ struct Device {
   // (which the table answers itself), a serial or a topic-root names a device.
   bool named_by(std::string_view key) const;
   bool used() const { return in_use && in_use->clients > 0; }
+  // Member by member, `extra` as JSON: equal devices write equal documents.
+  bool operator==(const Device&) const = default;
 };
 
 nlohmann::json to_json(const Device& device);
