@@ -59,9 +59,6 @@ struct RequestContext {
   // Set by write_shared around its write: which shared body the bytes come from.
   std::shared_ptr<const SharedBody> body;
   std::size_t body_offset = 0;
-  // A request the daemon made itself (ListReplay learning httplib's heads): not
-  // counted in the API's metrics nor logged.
-  bool internal = false;
 
   static RequestContext* current();
 };
