@@ -63,8 +63,8 @@ void make_socket_directory(const std::string& socket_path) {
 
 int main(int argc, char** argv) {
   // Two malloc arenas, not glibc's 8 per core: the API's worker threads each
-  // took one, and what a burst left in them outlived every trim (RSS 28 % above
-  // its start after a flood with clients asking; measured by bench/flood.py).
+  // took one, and what a burst left in them outlived every trim (RSS stayed well
+  // above its start after a flood with clients asking; bench/flood.py).
   mallopt(M_ARENA_MAX, 2);
   rsd::CommandLine cl;
   // --check-config: an invalid configuration is its answer (exit 1, at its line and

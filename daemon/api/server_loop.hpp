@@ -32,9 +32,9 @@ class EventFeed {
 
 // Response bytes that many requests share (a /v1/devices list of one table
 // generation), also held in a sealed memfd so that the loop hands them to the socket
-// with sendfile, without copying them: nginx serving the same 51 KB from a file did
-// 144k requests/s on the Unix socket with sendfile and 98k without, where this daemon
-// copying did 96k (bench/, 64 connections). Small bodies are not worth the memfd.
+// with sendfile, without copying them, as nginx serves a file: copying the list into
+// each socket was what kept the daemon below nginx on the Unix socket (bench/, http).
+// Small bodies are not worth the memfd.
 class SharedBody {
  public:
   explicit SharedBody(std::string bytes);

@@ -49,8 +49,8 @@ class LostServers {
   // Cyclone's view of the domain's participants (by GUID).
   void participant_alive(const std::string& guid, Clock::time_point now);
   // Gone (left, or its lease expired) at `now`: remembered for check_delay, as
-  // it may be heard again before the verdict (measured under 20 % UDP loss: back
-  // within 100 ms, its writers never matched again by the same participant).
+  // it may be heard again before the verdict (seen under heavy UDP loss: back at
+  // once, its writers never matched again by the same participant).
   void participant_gone(const std::string& guid, Clock::time_point now);
   // A fresh DDS participant hears every peer anew; what it heard is forgotten.
   // Servers already lost stay lost.
