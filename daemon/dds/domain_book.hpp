@@ -73,7 +73,7 @@ struct BookOptions {
   std::size_t max_devices_per_participant = 128;
   std::size_t max_devices_per_domain = 1024;
   // Writers are not devices: a host can match any number of device-info writers
-  // that announce nothing (2,500 from one process, measured), and each one
+  // that announce nothing (thousands from one process, measured), and each one
   // tracked costs memory and work per departure. A realdds server has one per
   // device and at most one more; beyond a cap a writer is refused: counted
   // (DomainStatus::writers_refused), logged with a rate limit, its samples

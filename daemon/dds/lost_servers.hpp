@@ -20,7 +20,7 @@ struct LostServerTimes {
   // again, yet never its writers; after 12 s and more it finds them by itself).
   // A crashed server is never heard again under its GUID, so it costs nothing:
   // a blind refresh every few seconds slowed the removal of the next crashed
-  // server to 4 s (it cannot unmatch a reader it never matched). Blind ones only
+  // server (it cannot unmatch a reader it never matched). Blind ones only
   // in case a server is never heard: `refresh_first` after the loss, then 4x
   // `refresh_again` later each time, up to `refresh_max`. A server lost longer
   // than `forget_after` is given up (a crashed one comes back under another GUID).
