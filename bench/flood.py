@@ -63,7 +63,7 @@ def run(args, tmp, domain):
     stop.set()
     t.join()
     # After the anchor's requests: API workers' memory is not the flood's.
-    time.sleep(11)  # one memory trim
+    time.sleep(11)  # settled
     before = rss_kb(d.proc.pid)
 
     stop = threading.Event()
@@ -79,7 +79,7 @@ def run(args, tmp, domain):
     stop.set()
     t.join()
     flood_out = writer.stdout.read().split()[1:]  # "matched", then "flooded N SECONDS"
-    time.sleep(20)  # the daemon hands memory back every 10 s
+    time.sleep(20)  # the daemon hands memory back 2 s after a burst (main.cpp, kTrimAfter)
     after = rss_kb(d.proc.pid)
     d.stop()
     return {"before": before, "peak": peak, "after": after, "sent": int(flood_out[1]),

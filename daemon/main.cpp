@@ -63,8 +63,8 @@ void make_socket_directory(const std::string& socket_path) {
 
 int main(int argc, char** argv) {
   // Two malloc arenas, not glibc's 8 per core: the API's worker threads each
-  // took one, and what a burst left in them outlived every trim (RSS 28 % above
-  // its start after a flood with clients asking; measured by bench/flood.py).
+  // took one, and what a burst left in them outlived every trim (RSS stayed well
+  // above its start after a flood with clients asking; bench/flood.py).
   mallopt(M_ARENA_MAX, 2);
   rsd::CommandLine cl;
   // --check-config: an invalid configuration is its answer (exit 1, at its line and
@@ -154,19 +154,21 @@ int main(int argc, char** argv) {
                    (on_unix.empty() ? "" : " on " + on_unix) +
                    (on_http.empty() ? "" : (on_unix.empty() ? " on " : " and on ") + on_http));
 
-  // glibc keeps what a burst freed (a flood of refused device-info, a large table
-  // emptied) in its arenas for good: measured, 12,815 devices come and gone left
-  // RSS at 168 MB. Handing free pages back now and then costs microseconds.
-  constexpr auto kTrimEvery = std::chrono::seconds(10);
-  auto next_trim = Clock::now() + kTrimEvery;
+  // glibc keeps what a burst freed (cameras come and gone, a large table emptied)
+  // in its arenas until asked for it: its free pages are handed back once the burst
+  // is over, kTrimAfter after the last change to the table or wake-up from DDS (a
+  // peer's departure frees more after the table has changed). Not on a clock: an
+  // idle daemon is not woken for it.
+  constexpr auto kTrimAfter = std::chrono::seconds(2);
+  auto trim_at = Clock::time_point::max();
 
   bool running = true;
   bool usb_changed = true;  // the cameras listed at start, shared once the loop runs
   while (running) {
     const auto now = Clock::now();
-    if (now >= next_trim) {
+    if (now >= trim_at) {
       malloc_trim(0);
-      next_trim = now + kTrimEvery;
+      trim_at = Clock::time_point::max();
     }
     // This host's cameras, announced to other hosts as soon as they change: the
     // USB source wakes the loop through usb.fd().
@@ -175,7 +177,7 @@ int main(int argc, char** argv) {
     // Each part says when it next has something to do; the loop sleeps until the
     // soonest of those, or until a descriptor wakes it.
     const auto wait = std::chrono::ceil<std::chrono::milliseconds>(std::min(
-        {domains.tick(now), network.tick(now), service.tick(now), Clock::duration(next_trim - now)}));
+        {domains.tick(now), network.tick(now), service.tick(now), Clock::duration(trim_at - now)}));
     // fd -1: not polled
     pollfd pfds[5] = {{signal_fd, POLLIN, 0},
                       {network.fd(), POLLIN, 0},
@@ -186,8 +188,14 @@ int main(int argc, char** argv) {
     if (poll(pfds, 5, timeout) <= 0) continue;
     if (pfds[1].revents & POLLIN) network.readable(Clock::now());
     if (pfds[2].revents & POLLIN) usb_changed = usb.changed();
-    if (pfds[3].revents & POLLIN) domains.woken();  // the sessions tick at the next turn
-    if (pfds[4].revents & POLLIN) service.table_changed();  // STATUS= at the next turn
+    if (pfds[3].revents & POLLIN) {
+      domains.woken();  // the sessions tick at the next turn
+      trim_at = Clock::now() + kTrimAfter;
+    }
+    if (pfds[4].revents & POLLIN) {
+      service.table_changed();  // STATUS= at the next turn
+      trim_at = Clock::now() + kTrimAfter;
+    }
     if (!(pfds[0].revents & POLLIN)) continue;
     signalfd_siginfo si{};
     if (read(signal_fd, &si, sizeof si) != static_cast<ssize_t>(sizeof si)) continue;

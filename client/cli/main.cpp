@@ -38,8 +38,8 @@ void usage(std::FILE* out) {
 int main(int argc, char** argv) {
   // Output to a pipe or file goes out in large blocks from a buffer that exists
   // before anything else is allocated: stdio's own, made at the first write after
-  // the device list was parsed and freed, cost a malloc_consolidate (3 % of a cold
-  // `rs-discover list`, callgrind). A terminal keeps its line buffering.
+  // the device list was parsed and freed, cost a malloc_consolidate that showed in a
+  // cold `rs-discover list` (callgrind). A terminal keeps its line buffering.
   static char out_buffer[1 << 16];
   if (!isatty(STDOUT_FILENO)) std::setvbuf(stdout, out_buffer, _IOFBF, sizeof out_buffer);
   std::vector<std::string> args(argv + 1, argv + argc);

@@ -65,8 +65,8 @@ std::string device_sources(const rsdiscovery::Device& d) {
 
 std::optional<double> parse_iso8601(const std::string& text) {
   // "2026-11-24T10:09:54.065Z", "+02:00"-style offsets too. By hand with
-  // from_chars and the chrono calendar: sscanf and timegm for the AGE column took
-  // a sixth of a cold `rs-discover list` of 100 cameras (callgrind).
+  // from_chars and the chrono calendar: sscanf and timegm for the AGE column were a
+  // large part of a cold `rs-discover list` (callgrind).
   const char* p = text.data();
   const char* const end = p + text.size();
   const auto number = [&](int digits, int& out) {

@@ -56,7 +56,7 @@ struct Client::Impl {
 
   // The last list of each path and its ETag: asked again with If-None-Match, an
   // unchanged table is a 304 and this copy, not a parse of every document again
-  // (a poller's list of 100 devices went from ~1 ms to the round trip).
+  // (a poller's list then costs about the round trip).
   struct CachedList {
     std::string etag;
     DeviceList list;

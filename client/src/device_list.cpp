@@ -1,11 +1,11 @@
 // GET /v1/devices' reply into a DeviceList: parsed with RapidJSON and read through the
 // model's one device reader (rsd_model/device_reader.hpp).
 //
-// Why not nlohmann here, as everywhere else: a cold `rs-discover list` of 100 cameras
-// (51 KB) spent 85 % of its instructions in nlohmann's parser, whose floor (its lexer
-// alone, a SAX parse doing nothing) was 0.72 ms in a loop on the bench machine, while
-// RapidJSON builds its whole tree in 0.18 ms (bench/results/profile-cli-list.txt).
-// It is header-only, so the CLI loads nothing more for it.
+// Why not nlohmann here, as everywhere else: a cold `rs-discover list` spent most of
+// its instructions in nlohmann's parser, whose lexer alone (a SAX parse doing
+// nothing) is slower than RapidJSON building its whole tree
+// (bench/results/profile-cli-list.txt). It is header-only, so the CLI loads nothing
+// more for it.
 #include "internal.hpp"
 
 #include "rsd_model/device_reader.hpp"

@@ -147,9 +147,9 @@ std::size_t skip_space(std::string_view text, std::size_t i) {
 
 }  // namespace
 
-// Why by hand: a list of 100 cameras is 51 KB, and writing each device back out of
-// the parsed tree (dump) was a fifth of a cold `rs-discover list` (callgrind: 2.4 of
-// 12 M instructions). nlohmann 3.11 does not say where a value lies in its input.
+// Why by hand: writing each device back out of the parsed tree (dump) was a large
+// part of a cold `rs-discover list` (callgrind). nlohmann 3.11 does not say where a
+// value lies in its input.
 std::vector<std::string_view> array_member_elements(std::string_view text, std::string_view key) {
   std::vector<std::string_view> out;
   std::size_t i = skip_space(text, 0);

@@ -3,10 +3,9 @@
 // kept-alive connection, asked again when the daemon is busy, and SSE streams.
 //
 // Why not an HTTP library: Debian's libcpp-httplib is a shared library built with
-// OpenSSL, brotli and zlib, and loading those was most of a CLI run (13 shared
-// objects; a cold `rs-discover list` took 6.4x /bin/true); libcurl drags in more
-// still. The client talks to one local daemon, so the little HTTP it needs is
-// written here.
+// OpenSSL, brotli and zlib, and loading those was most of a cold `rs-discover list`;
+// libcurl drags in more still. The client talks to one local daemon, so the little
+// HTTP it needs is written here.
 #include "internal.hpp"
 
 #include "http_wire.hpp"
@@ -161,7 +160,7 @@ Reply Transport::get_once(const std::string& path, std::optional<std::chrono::mi
         too_large(endpoint_, path);
       }
       // Room for the whole body at once, and the buffer itself handed over when it
-      // holds just the body: a 51 KB list was copied three times on its way in.
+      // holds just the body: a list was otherwise copied again on each step in.
       if (length <= kMaxReserve && c.buffer.capacity() < length) c.buffer.reserve(length);
       while (c.buffer.size() < length && (end = read_some(c.fd, c.buffer, deadline, cancelled_)) == IoEnd::ok) {
       }

@@ -5,8 +5,8 @@
 
 #include "api/handlers.hpp"
 #include "api/host_check.hpp"
-#include "api/list_replay.hpp"
 #include "api/listener.hpp"
+#include "api/plain_list.hpp"
 #include "api/routes.hpp"
 #include "api/server_loop.hpp"
 #include "log/log.hpp"
@@ -33,9 +33,9 @@ constexpr std::chrono::milliseconds kStopGrace{500};
 // The API takes no bodies; anything bigger than this is refused before it is read.
 constexpr std::size_t kMaxPayload = 64 * 1024;
 
-QuickAnswer quick_answer(ListReplay& replay) {
-  return [&replay](std::string_view request, bool stopping, QuickReply& reply) {
-    return replay.answer(request, stopping, reply);
+QuickAnswer quick_answer(PlainList& plain_list) {
+  return [&plain_list](std::string_view request, bool stopping, QuickReply& reply) {
+    return plain_list.answer(request, stopping, reply);
   };
 }
 
@@ -45,7 +45,7 @@ struct ApiServer::Impl : Handlers {
   std::unique_ptr<RequestServer> unix_server;
   std::unique_ptr<RequestServer> http_server;
   std::unique_ptr<RequestServer> offline_unix, offline_http;  // answer()
-  std::unique_ptr<ListReplay> unix_replay, http_replay;    // the plain list, past httplib
+  std::unique_ptr<PlainList> unix_plain_list, http_plain_list;  // the plain list, past httplib
   std::unique_ptr<ServerLoop> server_loop;
   std::optional<SharedTable::HookId> change_hook;  // the loop's, while it runs
   int unix_fd = -1;
@@ -134,8 +134,8 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
       }
       unix_server = std::make_unique<RequestServer>(unix_fd);
       configure(*unix_server, false);
-      unix_replay = std::make_unique<ListReplay>(*this, *unix_server, false, nullptr);
-      listeners.push_back({unix_fd, unix_server.get(), false, where, quick_answer(*unix_replay)});
+      unix_plain_list = std::make_unique<PlainList>(*this, *unix_server, nullptr);
+      listeners.push_back({unix_fd, unix_server.get(), false, where, quick_answer(*unix_plain_list)});
     }
     if (opts.inherited_http_fd >= 0 || !opts.http_host.empty()) {
       std::string where;
@@ -158,8 +158,8 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
       if (!host_check.enabled()) log::warning("api: allowed-hosts has \"*\": HTTP answers any Host header");
       http_server = std::make_unique<RequestServer>(http_fd);
       configure(*http_server, true);
-      http_replay = std::make_unique<ListReplay>(*this, *http_server, true, &host_check);
-      listeners.push_back({http_fd, http_server.get(), true, where, quick_answer(*http_replay)});
+      http_plain_list = std::make_unique<PlainList>(*this, *http_server, &host_check);
+      listeners.push_back({http_fd, http_server.get(), true, where, quick_answer(*http_plain_list)});
     }
     http_status = http_health(opts.http_host, opts.http_port, opts.http_configured,
                               http_fd >= 0 ? bound_address(http_fd) : "", bound_http_port, opts.inherited_http_fd >= 0);
@@ -219,8 +219,8 @@ void ApiServer::Impl::stop_locked() {
       ::close(*fd);
       *fd = -1;
     }
-  unix_replay.reset();
-  http_replay.reset();
+  unix_plain_list.reset();
+  http_plain_list.reset();
   unix_server.reset();
   http_server.reset();
   if (!socket_path.empty()) {

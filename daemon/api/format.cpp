@@ -21,6 +21,7 @@ std::string dump(const nlohmann::json& doc) {
 std::string_view status_text(int status) {
   switch (status) {
     case 200: return "OK";
+    case 304: return "Not Modified";  // as httplib spells it: the plain list's 304
     case 400: return "bad request";
     case 403: return "forbidden";
     case 404: return "not found";

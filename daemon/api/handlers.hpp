@@ -66,7 +66,7 @@ class Handlers {
 
   // The /v1/devices body of the table's current generation for `filter` and
   // `fields` (`query`: the parameters as the cache's key), made once per generation
-  // and thread. Also ListReplay's, which serves the plain list without httplib.
+  // and thread. Also PlainList's, which serves the plain list without httplib.
   std::shared_ptr<const SharedBody> device_list(const DeviceFilter& filter, const DeviceFields& fields,
                                                 const std::string& query, bool done, std::uint64_t& generation);
 

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <vector>
 
 namespace rsd::api {
 
@@ -242,13 +243,34 @@ void HttpConnection::back_to_reading(Clock::time_point now) {
   deadline_ = now + (in_.empty() ? options_.idle_timeout : options_.client_timeout);
 }
 
+std::string response_head(int status, std::span<const HeadField> fields) {
+  std::size_t size = 32;
+  for (const auto& f : fields) size += f.name.size() + f.value.size() + 4;
+  std::string out;
+  out.reserve(size);
+  out += "HTTP/1.1 ";
+  out += std::to_string(status);
+  out += ' ';
+  out += status_text(status);
+  out += "\r\n";
+  for (const auto& f : fields) {
+    out += f.name;
+    out += ": ";
+    out += f.value;
+    out += "\r\n";
+  }
+  out += "\r\n";
+  return out;
+}
+
 std::string canned_response(int status, const std::string& message, bool retry_after) {
   const std::string body = error_body(status, message);
-  std::string out = "HTTP/1.1 " + std::to_string(status) + " " + std::string(status_text(status)) + "\r\n";
-  out += "Content-Type: application/json\r\n";
-  if (retry_after) out += "Retry-After: 1\r\n";
-  out += "Connection: close\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body;
-  return out;
+  const std::string length = std::to_string(body.size());
+  std::vector<HeadField> fields{{"Content-Type", "application/json"}};
+  if (retry_after) fields.push_back({"Retry-After", "1"});
+  fields.push_back({"Connection", "close"});
+  fields.push_back({"Content-Length", length});
+  return response_head(status, fields) + body;
 }
 
 std::string chunk(std::string_view data) {

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -136,8 +137,13 @@ class HttpConnection {
   Counts counts_;
 };
 
-// A complete response the loop writes by itself (refusals, timeouts), and an SSE
-// chunk of the chunked encoding.
+// The daemon's own response writer, for what the loop answers without httplib: a
+// head (the status line, `fields` in the order given, the blank line); a complete
+// response of its own (refusals, timeouts); an SSE chunk of the chunked encoding.
+struct HeadField {
+  std::string_view name, value;
+};
+std::string response_head(int status, std::span<const HeadField> fields);
 std::string canned_response(int status, const std::string& message, bool retry_after);
 std::string chunk(std::string_view data);
 

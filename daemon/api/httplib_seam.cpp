@@ -109,8 +109,12 @@ void RequestServer::install(std::span<const Route> routes, const ServerRules& ru
   set_payload_max_length(rules.max_payload);
   // Only what httplib writes in its Keep-Alive header: the loop decides when a
   // connection ends (ServerLoop's idle timeout).
-  set_keep_alive_max_count(100000);
-  set_keep_alive_timeout(std::max(1, rules.keep_alive_timeout_s));
+  constexpr int kKeepAliveMax = 100000;
+  const int keep_alive_timeout = std::max(1, rules.keep_alive_timeout_s);
+  set_keep_alive_max_count(kKeepAliveMax);
+  set_keep_alive_timeout(keep_alive_timeout);
+  // As httplib spells it (write_response_core).
+  keep_alive_value_ = "timeout=" + std::to_string(keep_alive_timeout) + ", max=" + std::to_string(kKeepAliveMax);
 
   // httplib takes the first pattern that matches: the most literal first, so that
   // ".../description" is not taken for a device id (match_route's rule).
@@ -168,7 +172,6 @@ void RequestServer::install(std::span<const Route> routes, const ServerRules& ru
     answer(req, res, [&](const ApiRequest& r, ApiResponse& a) { rules.on_exception(r, a, what); });
   });
   set_logger([rules](const httplib::Request& req, const httplib::Response& res) {
-    if (const auto* ctx = RequestContext::current(); ctx && ctx->internal) return;
     rules.answered(req.method, req.target, res.status);
   });
 }
@@ -262,6 +265,14 @@ std::string serve_in_memory(RequestServer& server, std::string_view request) {
   bool closed = false;
   server.serve(stream, false, closed);
   return std::move(stream.out);
+}
+
+std::vector<std::size_t> field_order(std::span<const std::string_view> names) {
+  httplib::Headers headers;
+  for (std::size_t i = 0; i < names.size(); ++i) headers.emplace(std::string(names[i]), std::to_string(i));
+  std::vector<std::size_t> order;
+  for (const auto& [name, index] : headers) order.push_back(std::stoul(index));
+  return order;
 }
 
 bool write_shared(httplib::DataSink& sink, const std::shared_ptr<const SharedBody>& body, std::size_t offset,

@@ -6,8 +6,11 @@
 //  - RequestServer: httplib::Server, given the routes and the API's rules in the
 //    API's own types (install), plus a call of its process_request on our stream.
 //  - ConnectionStream (a loop connection) and serve_in_memory (a request held in
-//    memory, for ApiServer::answer and ListReplay's heads): the httplib::Stream that
-//    process_request reads and writes.
+//    memory, for ApiServer::answer): the httplib::Stream that process_request reads
+//    and writes.
+//  - What a head the daemon writes itself must share with httplib's for the same
+//    response (the plain list's): the Keep-Alive value and the order of the fields
+//    (field_order).
 //  - An ApiResponse's shared body goes out through a content provider whose write
 //    the loop turns into sendfile/splice from the memfd instead of a copy; its
 //    event stream through a chunked provider whose first chunk hands the
@@ -38,6 +41,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace rsd::api {
 
@@ -74,6 +78,8 @@ class RequestServer : public httplib::Server {
   explicit RequestServer(int listener_fd) { svr_sock_ = listener_fd; }
   // Registers `routes` and `rules`; once, before the first request.
   void install(std::span<const Route> routes, const ServerRules& rules);
+  // The Keep-Alive header's value on a response that keeps the connection.
+  const std::string& keep_alive_value() const { return keep_alive_value_; }
   // false: the connection must close after what was written.
   bool serve(httplib::Stream& stream, bool close_connection, bool& connection_closed) {
     return serve_on(*this, stream, close_connection, connection_closed);
@@ -96,7 +102,15 @@ class RequestServer : public httplib::Server {
                                     connection_closed, nullptr);
     }
   }
+
+  std::string keep_alive_value_;
 };
+
+// The order httplib writes a response's header fields in, given the order they were
+// set in (`names`, distinct): a permutation of their indices. It is its header
+// map's iteration order, sorted by name in 0.11 and hashed in 0.18 and later, so it
+// is taken from that map, filled as httplib fills it.
+std::vector<std::size_t> field_order(std::span<const std::string_view> names);
 
 // httplib's view of a loop connection: the request from the machine's buffer, the
 // response into its outbox (large bodies straight to the socket, a shared body

@@ -77,8 +77,8 @@ struct Reactor {
   std::vector<Connection*> returned;  // back from the blocking pool
   // Connections this loop owns, or has been handed and not yet taken: new ones go
   // to the loop with the fewest. One loop often wakes for a whole burst of clients
-  // (EPOLLEXCLUSIVE wakes one), and keeping them all left the other core idle:
-  // 64 benchmark connections ran at 68k or 130k requests/s by that luck alone.
+  // (EPOLLEXCLUSIVE wakes one), and keeping them all left the other core idle: the
+  // benchmark's throughput then doubled or halved by that luck alone.
   std::atomic<std::size_t> owned{0};
   std::mutex handed_mutex;
   std::vector<std::pair<int, const LoopListener*>> handed;  // accepted by another loop, for this one

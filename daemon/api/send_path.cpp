@@ -18,8 +18,8 @@ namespace {
 
 // A Unix socket wakes its reader for every send, and MSG_MORE does not hold it back as
 // on TCP: a list's head and then its body were two wake-ups per response, and waking
-// the client was the largest cost in the daemon's profile (sock_def_readable, 15 % of
-// its CPU under 64 connections). Through this thread's pipe the head (copied in) and the body
+// the client was the largest cost in the daemon's profile (sock_def_readable, under
+// many connections). Through this thread's pipe the head (copied in) and the body
 // (spliced from its memfd, not copied) reach the socket in one splice: one wake-up.
 // The pipe is empty between calls: what the socket does not take is read back out
 // and dropped, the caller still holding it (its `out` and its memfd).

@@ -32,9 +32,9 @@ class EventFeed {
 
 // Response bytes that many requests share (a /v1/devices list of one table
 // generation), also held in a sealed memfd so that the loop hands them to the socket
-// with sendfile, without copying them: nginx serving the same 51 KB from a file did
-// 144k requests/s on the Unix socket with sendfile and 98k without, where this daemon
-// copying did 96k (bench/, 64 connections). Small bodies are not worth the memfd.
+// with sendfile, without copying them, as nginx serves a file: copying the list into
+// each socket was what kept the daemon below nginx on the Unix socket (bench/, http).
+// Small bodies are not worth the memfd.
 class SharedBody {
  public:
   explicit SharedBody(std::string bytes);
@@ -59,9 +59,6 @@ struct RequestContext {
   // Set by write_shared around its write: which shared body the bytes come from.
   std::shared_ptr<const SharedBody> body;
   std::size_t body_offset = 0;
-  // A request the daemon made itself (ListReplay learning httplib's heads): not
-  // counted in the API's metrics nor logged.
-  bool internal = false;
 
   static RequestContext* current();
 };

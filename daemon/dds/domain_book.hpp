@@ -64,16 +64,16 @@ struct BookOptions {
   // two silent writers, or one and no device at all (its only broadcast lost); a
   // writer that stays silent for the new reader too is idle and not counted again.
   // A server with devices and one silent writer is left alone: making the reader
-  // anew for every such server cost 1.6 s in noticing a SIGKILL (bench, measured).
+  // anew for every such server slowed the noticing of a SIGKILL (bench, measured).
   std::chrono::milliseconds silent_grace{2500};
   int silent_retries = 3;  // per server participant, so a quiet peer can't loop us
   // Caps: a realdds server announces a handful of devices, and one rogue writer
-  // could announce thousands (150,000 distinct ones in 2 s, measured). Devices
+  // could announce distinct ones faster than any table should keep them. Devices
   // beyond a cap are refused (counted as rejected, logged with a rate limit).
   std::size_t max_devices_per_participant = 128;
   std::size_t max_devices_per_domain = 1024;
   // Writers are not devices: a host can match any number of device-info writers
-  // that announce nothing (2,500 from one process, measured), and each one
+  // that announce nothing (thousands from one process, measured), and each one
   // tracked costs memory and work per departure. A realdds server has one per
   // device and at most one more; beyond a cap a writer is refused: counted
   // (DomainStatus::writers_refused), logged with a rate limit, its samples
@@ -198,8 +198,8 @@ class DomainBook {
   };
   // A device of this domain in the table, and every writer announcing it: two
   // servers may serve one topic-root, and the device stays while either does.
-  // Typed: as JSON objects, the document and its servers were ~3.7 KB a camera,
-  // the largest part of the daemon's memory at 10,000 (bench scale10k, massif).
+  // Typed: as JSON objects, the document and its servers were several times larger,
+  // the largest part of the daemon's memory with many cameras (scale10k, massif).
   struct Announced {
     std::uint64_t found = 0;  // the order devices were found in, for set_device_caps
     model::Device doc;  // as last given to the table

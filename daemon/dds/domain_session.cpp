@@ -23,10 +23,10 @@ namespace rsd::dds {
 namespace {
 
 // Cyclone receives into 1 MiB ring buffers by default, one per receiving thread,
-// and a ring's pages become resident one by one as messages pass through it:
-// measured in the soak, a ring took 2.5 to 14 minutes to fill, so the daemon's
-// RSS crept up by about 1 MiB per ring for a quarter of an hour and then see-sawed
-// by as much each time a ring was replaced. Discovery traffic is small: 256 KiB
+// and a ring's pages become resident one by one as messages pass through it: with
+// discovery's little traffic a ring takes minutes to fill, so the daemon's RSS crept
+// up by a ring's size for many minutes (the soak) and then see-sawed by as much
+// each time a ring was replaced. Discovery traffic is small: 256 KiB
 // rings fill in the first minutes and keep RSS flat after. Messages are still
 // received in Cyclone's default 128 KiB chunks (Fast DDS sends datagrams of up to
 // 64 KiB). The user's configuration can set other sizes.

@@ -20,7 +20,7 @@ struct LostServerTimes {
   // again, yet never its writers; after 12 s and more it finds them by itself).
   // A crashed server is never heard again under its GUID, so it costs nothing:
   // a blind refresh every few seconds slowed the removal of the next crashed
-  // server to 4 s (it cannot unmatch a reader it never matched). Blind ones only
+  // server (it cannot unmatch a reader it never matched). Blind ones only
   // in case a server is never heard: `refresh_first` after the loss, then 4x
   // `refresh_again` later each time, up to `refresh_max`. A server lost longer
   // than `forget_after` is given up (a crashed one comes back under another GUID).
@@ -49,8 +49,8 @@ class LostServers {
   // Cyclone's view of the domain's participants (by GUID).
   void participant_alive(const std::string& guid, Clock::time_point now);
   // Gone (left, or its lease expired) at `now`: remembered for check_delay, as
-  // it may be heard again before the verdict (measured under 20 % UDP loss: back
-  // within 100 ms, its writers never matched again by the same participant).
+  // it may be heard again before the verdict (seen under heavy UDP loss: back at
+  // once, its writers never matched again by the same participant).
   void participant_gone(const std::string& guid, Clock::time_point now);
   // A fresh DDS participant hears every peer anew; what it heard is forgotten.
   // Servers already lost stay lost.

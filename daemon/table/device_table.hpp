@@ -44,8 +44,7 @@ struct DeviceEvent {
   std::string id;  // the entry's
   // The entry as it is after the event (before it, for removed): the table's own while
   // it is current. The change log keeps thousands of these; a document as a JSON
-  // object took 3 KB (measured), as text about 500 bytes, and the log's byte bound
-  // counts the text.
+  // object takes several times its text, and the log's byte bound counts the text.
   EntryPtr entry;
   // changed: the entry before the change, so that a filtered reader can tell a
   // device leaving its filter (removed, for it) or entering it (added).
@@ -250,7 +249,7 @@ class DeviceTable {
                                           const Removal& removal);
 
   // As the sources gave them, typed: as JSON objects they were the largest part of
-  // the daemon's memory per camera (~2.3 KB of 10 KB at 10,000 cameras, massif).
+  // the daemon's memory per camera (bench scale10k, massif).
   std::map<std::string, model::Device> sightings_;
   std::map<std::string, std::set<std::string>> by_serial_;  // merge key -> sighting ids
   std::map<std::string, std::string> owner_;        // sighting id -> entry id

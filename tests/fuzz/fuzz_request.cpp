@@ -4,7 +4,7 @@
 // the daemon's routes (filters, ids, Last-Event-ID, since, the Host check) to an
 // answer that is an HTTP response. The table holds a DDS, a USB and a merged camera.
 #include "api/api_server.hpp"
-#include "api/list_replay.hpp"
+#include "api/plain_list.hpp"
 #include "api/request_head.hpp"
 #include "log/log.hpp"
 
@@ -76,7 +76,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (whole.verdict != rsd::api::HeadVerdict::complete) return 0;
   if (whole.head_length > size) std::abort();
   const auto request = in.substr(0, std::min(size, whole.head_length + whole.body_length));
-  // A request the loop would answer past httplib (ListReplay) is one httplib
+  // A request the loop would answer past httplib (PlainList) is one httplib
   // answers as a plain list too: a 200 or a 304, on the Unix socket, and of
   // exactly the request's bytes (no body, no second request hidden behind it).
   const bool plain = rsd::api::read_plain_list(request).has_value();

@@ -1,5 +1,5 @@
-"""The plain list answered past httplib (daemon/api/list_replay.*): `GET /v1/devices`
-with no query is answered with the head httplib wrote for the table's generation.
+"""The plain list answered past httplib (daemon/api/plain_list.*): `GET /v1/devices`
+with no query is answered with a head the daemon writes for the table's generation.
 `GET /v1/devices?` (an empty query, the same resource) still goes through httplib, so
 the two must be the same bytes, for every header a poller sends, on both listeners,
 before and after the table changes; the harness's debug log says which path answered."""
@@ -26,8 +26,8 @@ VARIANTS = [
 ]
 
 
-def replayed(h):
-    return len(re.findall(r"GET /v1/devices -> \d+ \(replayed\)", h.log()))
+def plain_answers(h):
+    return len(re.findall(r"GET /v1/devices -> \d+ \(plain list\)", h.log()))
 
 
 def both(target, headers):
@@ -47,12 +47,12 @@ def test_the_plain_list_is_httplibs_own_bytes(harness, devices):  # noqa: F811
             _, headers, _ = request(target, "/v1/devices")
             etag = headers["etag"].encode()
             for variant, status in VARIANTS:
-                before = replayed(h)
+                before = plain_answers(h)
                 fast, slow = both(target, variant.replace(b"{etag}", etag))
                 assert fast == slow, (variant, fast[:400], slow[:400])
                 assert fast.startswith(b"HTTP/1.1 %d " % status), fast[:200]
-                assert replayed(h) == before + 1, (variant, h.log()[-2000:])
-        # A change: the next answers are of the new generation, not the learnt heads.
+                assert plain_answers(h) == before + 1, (variant, h.log()[-2000:])
+        # A change: the next answers are of the new generation, not the heads made before.
         generation = h.upsert(*dev(devices + round_))
         _, headers, body = request(h.socket, "/v1/devices")
         assert headers["etag"] == f'"{generation}"' and body.count(b'"serial"') == devices + round_ + 1
@@ -70,17 +70,17 @@ def test_the_plain_list_is_httplibs_own_bytes(harness, devices):  # noqa: F811
     b"GET /v1/devices HTTP/1.1\r\nHost: localhost\r\nContent-Length: 2\r\n\r\n{}",
     b"GET /v1/devices HTTP/1.1\r\nHost: local\xffhost\r\n\r\n",
 ], ids=["gzip", "gzip-identity", "range", "two-hosts", "Close", "http10", "head", "bare-lf", "body", "non-ascii"])
-def test_what_the_replay_cannot_read_exactly_goes_to_httplib(harness, request_bytes):  # noqa: F811
+def test_what_the_plain_list_cannot_read_exactly_goes_to_httplib(harness, request_bytes):  # noqa: F811
     h = harness()
     h.upsert(*dev(1))
-    before = replayed(h)
+    before = plain_answers(h)
     answer = raw(h.socket, request_bytes)
     assert answer.startswith(b"HTTP/1."), answer[:200]
-    assert replayed(h) == before
+    assert plain_answers(h) == before
 
 
 def test_a_foreign_host_is_refused_as_before(harness):  # noqa: F811
-    """On TCP the Host check comes first (DNS rebinding): the replay leaves it to httplib's 421."""
+    """On TCP the Host check comes first (DNS rebinding): the plain list leaves it to httplib's 421."""
     h = harness()
     h.upsert(*dev(1))
     answer = raw(h.tcp, b"GET /v1/devices HTTP/1.1\r\nHost: evil.example\r\n\r\n")
@@ -89,7 +89,7 @@ def test_a_foreign_host_is_refused_as_before(harness):  # noqa: F811
     assert answer.startswith(b"HTTP/1.1 200 "), answer[:200]
 
 
-def test_replayed_answers_are_counted(harness):  # noqa: F811
+def test_plain_list_answers_are_counted(harness):  # noqa: F811
     h = harness()
     h.upsert(*dev(1))
 

@@ -1,15 +1,14 @@
-// The plain list's reading (read_plain_list) and its answer from httplib's heads,
-// learnt once per table generation on each loop thread (list_replay.hpp says why).
-#include "api/list_replay.hpp"
+// The plain list's reading (read_plain_list) and its answer, with heads written
+// once per table generation on each loop thread (plain_list.hpp says why).
+#include "api/plain_list.hpp"
 
-#include "api/connection.hpp"
 #include "api/format.hpp"
 #include "api/handlers.hpp"
 #include "api/host_check.hpp"
 #include "log/log.hpp"
 
-#include <array>
 #include <cctype>
+#include <memory>
 
 namespace rsd::api {
 
@@ -46,9 +45,9 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
-// httplib's heads for the current body on this thread, by [304][close].
+// The heads for the current body on this thread, by [304][close].
 struct Heads {
-  const ListReplay* owner = nullptr;
+  const PlainList* owner = nullptr;
   std::shared_ptr<const SharedBody> body;  // held, so that its address names only it
   bool complete = false;
   std::string etag;
@@ -56,12 +55,30 @@ struct Heads {
 };
 thread_local Heads tls_heads;
 
+// The fields of the answer to `GET /v1/devices?`, in the order httplib sets them:
+// handle_devices sets ETag and Cache-Control, the shared body's content provider
+// Content-Type; then httplib adds Content-Length, and Connection or Keep-Alive; a
+// 304's Content-Length, for a response with no body, comes last. A field that
+// handle_devices or into_httplib adds must be added here too (the tests compare
+// the bytes).
+std::vector<HeadField> list_fields(bool not_modified, bool close, std::string_view etag, std::string_view length,
+                                   std::string_view keep_alive) {
+  std::vector<HeadField> fields{{"ETag", etag}, {"Cache-Control", "no-cache"}};
+  if (!not_modified) {
+    fields.push_back({"Content-Type", kJson});
+    fields.push_back({"Content-Length", length});
+  }
+  fields.push_back(close ? HeadField{"Connection", "close"} : HeadField{"Keep-Alive", keep_alive});
+  if (not_modified) fields.push_back({"Content-Length", "0"});
+  return fields;
+}
+
 }  // namespace
 
-std::optional<PlainList> read_plain_list(std::string_view request) {
+std::optional<PlainListRequest> read_plain_list(std::string_view request) {
   if (!request.starts_with(kRequestLine)) return std::nullopt;
   std::string_view rest = request.substr(kRequestLine.size());
-  PlainList out;
+  PlainListRequest out;
   bool seen[6] = {};
   for (;;) {
     const auto eol = rest.find("\r\n");
@@ -99,45 +116,26 @@ std::optional<PlainList> read_plain_list(std::string_view request) {
   return out;
 }
 
-namespace {
-
-// httplib's answers to the canonical plain lists, split into heads; false when
-// they are not of `body` (the table changed while they were made).
-bool learn(Heads& h, RequestServer& server, bool http, const std::shared_ptr<const SharedBody>& body,
-           std::uint64_t generation, bool complete) {
-  h = Heads{};
-  h.etag = list_etag(generation, complete);
-  RequestContext* outer = RequestContext::current();
-  RequestContext context;
-  context.http = http;
-  context.internal = true;
-  set_request_context(&context);
-  bool ok = true;
-  for (int not_modified = 0; not_modified < 2 && ok; ++not_modified)
-    for (int close = 0; close < 2 && ok; ++close) {
-      // No Host: a request without one passes the HTTP listener's check, whatever it
-      // is bound to (the request being answered has passed it already).
-      std::string request(kRequestLine);
-      if (not_modified) request += "If-None-Match: " + h.etag + "\r\n";
-      if (close) request += "Connection: close\r\n";
-      request += "\r\n";
-      std::string response = serve_in_memory(server, request);
-      const auto end = response.find("\r\n\r\n");
-      ok = end != std::string::npos && response.find("\r\nETag: " + h.etag + "\r\n") < end &&
-           response.starts_with(not_modified ? "HTTP/1.1 304 " : "HTTP/1.1 200 ") &&
-           std::string_view(response).substr(end + 4) == (not_modified ? std::string_view{} : body->bytes());
-      if (ok) h.head[not_modified][close] = response.substr(0, end + 4);
+PlainList::PlainList(Handlers& handlers, const RequestServer& server, const HostCheck* host_check)
+    : handlers_(handlers), host_check_(host_check), keep_alive_(server.keep_alive_value()) {
+  for (int not_modified = 0; not_modified < 2; ++not_modified)
+    for (int close = 0; close < 2; ++close) {
+      std::vector<std::string_view> names;
+      for (const auto& f : list_fields(not_modified, close, "", "", "")) names.push_back(f.name);
+      order_[not_modified][close] = field_order(names);
     }
-  set_request_context(outer);
-  if (!ok) return false;
-  h.body = body;
-  h.complete = complete;
-  return true;
 }
 
-}  // namespace
+std::string PlainList::head(bool not_modified, bool close, std::string_view etag, std::size_t length) const {
+  const std::string size = std::to_string(length);
+  const auto fields = list_fields(not_modified, close, etag, size, keep_alive_);
+  std::vector<HeadField> ordered;
+  ordered.reserve(fields.size());
+  for (const std::size_t i : order_[not_modified][close]) ordered.push_back(fields[i]);
+  return response_head(not_modified ? 304 : 200, ordered);
+}
 
-bool ListReplay::answer(std::string_view request, bool stopping, QuickReply& reply) {
+bool PlainList::answer(std::string_view request, bool stopping, QuickReply& reply) {
   const auto plain = read_plain_list(request);
   if (!plain) return false;
   if (host_check_ && !host_check_->allows(plain->host)) return false;  // httplib's 421
@@ -147,8 +145,13 @@ bool ListReplay::answer(std::string_view request, bool stopping, QuickReply& rep
   auto body = handlers_.device_list(DeviceFilter{}, DeviceFields{}, std::string(), done, generation);
   Heads& h = tls_heads;
   if (h.owner != this || h.body != body || h.complete != done) {
-    if (!learn(h, server_, http_, body, generation, done)) return false;
+    h.etag = list_etag(generation, done);
+    for (int not_modified = 0; not_modified < 2; ++not_modified)
+      for (int close = 0; close < 2; ++close)
+        h.head[not_modified][close] = head(not_modified, close, h.etag, body->bytes().size());
     h.owner = this;
+    h.body = body;
+    h.complete = done;
   }
   const bool not_modified = etag_matches(plain->if_none_match, h.etag);
   const bool close = plain->close || stopping;
@@ -157,7 +160,8 @@ bool ListReplay::answer(std::string_view request, bool stopping, QuickReply& rep
   reply.close = close;
   const int status = not_modified ? 304 : 200;
   ++handlers_.requests_by_status[static_cast<std::size_t>(status)];
-  if (log::enabled(log::Level::debug)) log::debug("api: GET /v1/devices -> " + std::to_string(status) + " (replayed)");
+  if (log::enabled(log::Level::debug))
+    log::debug("api: GET /v1/devices -> " + std::to_string(status) + " (plain list)");
   return true;
 }
 

@@ -1,7 +1,7 @@
-// read_plain_list: which requests the daemon answers past httplib (ListReplay).
+// read_plain_list: which requests the daemon answers past httplib (PlainList).
 // Everything it takes must be a request httplib reads the same way; everything
 // else (whatever could change the answer's bytes) must be left to httplib.
-#include "api/list_replay.hpp"
+#include "api/plain_list.hpp"
 
 #include <gtest/gtest.h>
 
