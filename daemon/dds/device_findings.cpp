@@ -43,6 +43,10 @@ std::optional<std::set<std::string>> DomainBook::servers_of(const std::string& t
   return out;
 }
 
+bool DomainBook::has_device(std::string_view topic_root) const {
+  return devices_.count(device_id(options_.domain, std::string(topic_root))) > 0;
+}
+
 std::set<std::string> DomainBook::servers_to_hear() const {
   std::set<std::string> out;
   for (const auto& [id, device] : devices_)

@@ -22,6 +22,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <string_view>
 #include <unordered_set>
 #include <utility>
 #include <vector>
@@ -169,6 +170,8 @@ class DomainBook {
   // The participants announcing the device `topic_root` (its servers: never its
   // clients); nothing when there is no such device.
   std::optional<std::set<std::string>> servers_of(const std::string& topic_root) const;
+  // Whether a device with this topic-root is kept.
+  bool has_device(std::string_view topic_root) const;
   // The participants a new reader must not be made before: the servers of the
   // devices kept and the lost servers (their broadcasts to a reader made before
   // Cyclone knows their writers are lost for good).

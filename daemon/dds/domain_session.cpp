@@ -394,7 +394,11 @@ void DomainSession::take_samples(dds_entity_t reader) {
         std::lock_guard lock(mutex_);
         identify(reader, info.publication_handle);
         book_.sample(info.publication_handle, std::move(parsed));
-        if (!root.empty()) update_in_use({std::move(root)});  // its clients may have come first
+        if (!root.empty()) {  // its clients may have come first, counted for a camera its root extends
+          std::set<std::string> roots{root};
+          for (std::size_t u = root.find('_'); u != std::string::npos; u = root.find('_', u + 1)) roots.insert(root.substr(0, u));
+          update_in_use(roots);
+        }
       } catch (const std::exception& e) {
         log::error(std::string("device-info sample dropped: ") + e.what());
       }
