@@ -91,6 +91,11 @@ struct BookOptions {
   // unresponsive, this long, and is not removed if heard again by then (0: removed
   // at once, as realdds does). A lossy link then does not make a dashboard flicker.
   std::chrono::milliseconds removal_grace{0};
+  // A client leaving takes its endpoints away one by one (its stream readers, then
+  // its device's, then its participant): an in-use summary losing a client or a
+  // stream is held this long, so the camera changes once when the client goes. A
+  // client coming, or a stream opened, is written at once.
+  std::chrono::milliseconds in_use_hold{50};
   LostServerTimes lost;
 };
 
@@ -178,8 +183,13 @@ class DomainBook {
   std::set<std::string> servers_to_hear() const;
   // Who uses the device, in short, into its document (model::InUse; none while it has
   // no client). The table changes only when the summary does: a client's burst of
-  // endpoints is one change.
-  void set_in_use(const std::string& topic_root, const model::InUse& in_use);
+  // endpoints is one change. One that takes something away (a client, a stream) is
+  // held for BookOptions::in_use_hold from the first such, then written as it is
+  // by then (flush_in_use); one that takes nothing away is written at once.
+  // True when a hold began: the main loop must tick by its end (next_deadline).
+  bool set_in_use(const std::string& topic_root, const model::InUse& in_use, Clock::time_point now);
+  // The held summaries whose time has come, into the table (the main loop's tick).
+  void flush_in_use(Clock::time_point now);
   // Whether the device's notification set came whole when asked (DescriptionFetcher),
   // into its document: "ready", and "ready-stage" while not. Kept across its
   // announcements until the next fetch concludes.
@@ -255,6 +265,13 @@ class DomainBook {
   std::vector<LeaseLoss> lease_losses_;
   // Devices in their removal grace: device id -> when they are removed.
   std::map<std::string, Clock::time_point> unresponsive_;
+  // In-use summaries held (set_in_use), by device id: the latest, and when it is written.
+  struct HeldInUse {
+    std::optional<model::InUse> in_use;
+    Clock::time_point until;
+  };
+  std::map<std::string, HeldInUse> in_use_held_;
+  void write_in_use(const std::string& id, std::optional<model::InUse> in_use);
   void mark_unresponsive(const std::string& id, Clock::time_point now);
   void end_graces(Clock::time_point now);
   std::uint64_t accepted_ = 0, stopping_ = 0;

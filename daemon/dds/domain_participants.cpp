@@ -326,9 +326,12 @@ void DomainSession::update_in_use_of_topics(const std::vector<std::string>& topi
 }
 
 void DomainSession::update_in_use(const std::set<std::string>& roots) {
+  bool held = false;
   for (const auto& root : roots)
     if (auto servers = book_.servers_of(root))
-      book_.set_in_use(root, model::summary_of(participants_.clients(root, *servers, known_root())));
+      held = book_.set_in_use(root, model::summary_of(participants_.clients(root, *servers, known_root())),
+                              Clock::now()) || held;
+  if (held) wake();  // the main loop sleeps past a hold it does not know of: tick() writes it
 }
 
 realdds_topics::KnownRoot DomainSession::known_root() const {

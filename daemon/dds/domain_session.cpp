@@ -328,6 +328,7 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
     // reconcile_due(now) holds as above: only this (the main) thread moves the
     // book's reconcile deadline.
     due = book_.tick(now, matched);
+    book_.flush_in_use(now);
     if (due.refresh) ++refreshes_;
     lease_losses = book_.take_lease_losses();
     present = book_.topic_roots();
