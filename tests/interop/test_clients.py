@@ -227,6 +227,67 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     events.close()
 
 
+def event_id(ev):
+    """The device id an event is about (a removal carries the device as last seen)."""
+    doc = ev.get("json") or {}
+    return doc.get("id") or (doc.get("device") or {}).get("id")
+
+
+def test_the_in_use_filter_follows_clients_in_every_stream(free_domain, daemon, realdds_server):
+    """/v1/events?in-use=true, `rs-discover watch --in-use`, Python's watch, watcher and
+    wait_for with in_use=True: a camera enters the filtered stream (added) when a client
+    comes and leaves it (removed) when its last client goes; ?in-use=false the other way."""
+    import threading
+
+    d, x, xid = served_d555(free_domain, daemon, realdds_server, "556222")
+    endpoint = "unix:" + d.socket
+    used, free = EventStream(d, query="?in-use=true"), EventStream(d, query="?in-use=false")
+    watch = WatchProcess(endpoint, "--in-use")
+    py = rsdiscovery.Client(endpoint)
+    watcher = py.watcher(in_use=True)
+    generator = rsdiscovery.watch(endpoint=endpoint, in_use=True)
+    from_generator, waited = [], []
+    threading.Thread(target=lambda: from_generator.extend([next(generator), next(generator)]), daemon=True).start()
+    threading.Thread(target=lambda: waited.append(rsdiscovery.wait_for(endpoint=endpoint, in_use=True, timeout=30)),
+                     daemon=True).start()
+    assert py.wait_for(in_use=False, serial=x["serial"], timeout=10).id == xid
+    wait_for(lambda: watcher.devices() == [] and watch.proc.poll() is None, what="the watches started")
+
+    a = Client(free_domain, x, "my-robot-app")
+    ev = used.next(types=("added", "changed", "removed"))
+    assert (ev["event"], event_id(ev), ev["json"]["in-use"]) == ("added", xid, {"clients": 1, "streaming": []})
+    ev = free.next(types=("added", "changed", "removed"))
+    assert (ev["event"], event_id(ev)) == ("removed", xid)
+    got = watcher.next(timeout=10)
+    assert got is not None and (got.type, got.device.id) == ("added", xid), got
+    assert got.device.in_use == rsdiscovery.InUse(clients=1, streaming=())
+    wait_for(lambda: waited, what="wait_for(in_use=True)")
+    assert waited[0].id == xid and waited[0].in_use.clients == 1
+    wait_for(lambda: any(x["serial"] in ln for ln in watch.lines), what="rs-discover watch --in-use: the camera")
+    came = [ln for ln in watch.lines if x["serial"] in ln]
+    assert len(came) == 1 and " added " in came[0] and xid in came[0], came
+
+    a.quit()
+    ev = used.next(types=("added", "changed", "removed"))
+    assert (ev["event"], event_id(ev)) == ("removed", xid)
+    ev = free.next(types=("added", "changed", "removed"))
+    assert (ev["event"], event_id(ev)) == ("added", xid) and "in-use" not in ev["json"]
+    got = watcher.next(timeout=10)
+    assert got is not None and (got.type, got.device.id) == ("removed", xid), got
+    assert watcher.devices() == []
+    wait_for(lambda: len(from_generator) == 2, what="watch(in_use=True): added, then removed")
+    assert [(e.type, e.device.id) for e in from_generator] == [("added", xid), ("removed", xid)]
+    wait_for(lambda: len([ln for ln in watch.lines if x["serial"] in ln]) > len(came),
+             what="rs-discover watch --in-use: the camera gone")
+    assert watch.interrupt() == 0, watch.errors
+    went = [ln for ln in watch.lines if x["serial"] in ln][len(came):]
+    assert len(went) == 1 and " removed " in went[0] and xid in went[0], went
+    watcher.close()
+    generator.close()
+    used.close()
+    free.close()
+
+
 def test_clients_of_a_usb_or_unknown_device(free_domain, daemon):
     d = daemon([free_domain])
     status, _, body = d.request("/v1/devices/nobody/clients")
