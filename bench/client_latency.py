@@ -1,33 +1,37 @@
 """A realdds client of a camera, listed as one: how long after DDS discovery.
 
-One daemon on a domain of its own, the suite's realdds server serving one D555
-(tests/tools/realdds_server.py, spec d555), and an observer: a Cyclone DDS
-participant of PyPI's `cyclonedds` (another DDS stack than the daemon's) reading
+One daemon on a domain of its own, with Cyclone's discovery trace on (its
+timestamps say when the daemon's own DDS stack took each endpoint of a peer), the
+suite's realdds server serving one D555 (tests/tools/realdds_server.py, spec d555),
+and an observer: a participant of PyPI's `cyclonedds` (another DDS stack) reading
 the DCPSPublication and DCPSSubscription built-in topics, which stamps each
-endpoint on the camera's topics as its own discovery delivers it. Each round
-starts a realdds client (tests/tools/realdds_client.py: pyrealdds' dds.device on
-the camera, no streams), then makes it quit cleanly, and times, by
-time.monotonic() (one clock for every process of the host):
+endpoint on the camera's topics as its discovery delivers it. Each round starts a
+realdds client (tests/tools/realdds_client.py: pyrealdds' dds.device on the camera,
+no streams), then makes it quit cleanly, and times:
 
-  device -> observer      the client makes its dds.device -> the observer's DDS
-                          discovery of the client's first endpoint on the camera's
-                          topics (the anchor: DDS discovery itself)
-  observer -> listed      that discovery -> the daemon's `changed` event (the camera's
-                          in-use summary counting the client) read on /v1/events:
-                          the daemon's own share, target <= 100 ms
-  device -> listed        the sum, as a user sees it
+  device -> daemon's DDS  the client makes its dds.device -> the daemon's Cyclone
+                          takes the client's first endpoint on the camera's topics
+                          (its trace's "SEDP ST0 ... NEW"): DDS discovery itself
+  daemon's DDS -> listed  that -> the daemon's `changed` event (the camera's in-use
+                          summary counting the client) read on /v1/events: the
+                          daemon's own share, target <= 100 ms
+  device -> observer      the same discovery by the observer, another stack: an
+                          anchor for what any DDS reader gets
+  device -> listed        the whole, as a user sees it
   quit -> unlisted        the client told to quit -> the `changed` event without it
 
-plus the `changed` events each coming and going brought (one each, however many
-endpoints). The observer and the daemon discover the client independently, so a
-round's `observer -> listed` may be below zero. Prints one JSON object; bench/run's
-"clients" section calls it; alone:
+plus the `changed` events each coming and going brought beyond the first (none:
+one each, however many endpoints). Times are time.monotonic() (one clock for every
+process of the host); the trace's wall-clock times are brought onto it by the
+offset measured at the start. Prints one JSON object; bench/run's "clients" section
+calls it; alone:
   .venv/bin/python bench/client_latency.py --build build --rounds 20
 """
 import argparse
 import json
 import os
 import queue
+import re
 import subprocess
 import sys
 import tempfile
@@ -70,6 +74,27 @@ def observe(domain, root):
     del readers
 
 
+# A client's endpoints on a camera's topics as Cyclone's discovery trace takes them: its
+# control writer and its notification reader (a server has the other two directions).
+SEDP_NEW = re.compile(r"^(\d+\.\d+) .*SEDP ST0 ([0-9a-f]+:[0-9a-f]+):\S+ \S+ \S+ (reader|writer) .*\.(\S+)/"
+                      r"(notification|control)/\S+ p\(\S+\) NEW")
+
+
+def daemon_discoveries(trace_path, root):
+    """{participant prefix: the wall-clock time its first client endpoint on `root` was
+    taken}, from the daemon's Cyclone trace, in the order the participants came."""
+    out = {}
+    with open(trace_path, errors="replace") as f:
+        for line in f:
+            m = SEDP_NEW.match(line)
+            if not m or m.group(4) != root:
+                continue
+            client_side = (m.group(3), m.group(5)) in (("reader", "notification"), ("writer", "control"))
+            if client_side and m.group(2) not in out:
+                out[m.group(2)] = float(m.group(1))
+    return out
+
+
 def measure(build, rounds):
     import conftest
     from bench_common import BenchError, Lines, log, stats, wait_until
@@ -84,8 +109,12 @@ def measure(build, rounds):
         with open(cfg, "w") as f:
             f.write("{}")
         conftest.DAEMON = os.path.join(os.path.abspath(build), "daemon", "rs-discoveryd")
+        trace = os.path.join(tmp, "cyclone-trace.log")
+        uri = f"<Tracing><Category>discovery</Category><OutputFile>{trace}</OutputFile></Tracing>"
         d = conftest.Daemon(["--domain", str(domain), "--config", cfg, "--socket", sock, "--no-usb",
-                             "--log-level", "warning"], tmp, sock, None)
+                             "--log-level", "warning"], tmp, sock, None, env={"CYCLONEDDS_URI": uri})
+        # The trace's clock (wall) onto time.monotonic(): the smallest offset of a few reads.
+        offset = min(time.time() - time.monotonic() for _ in range(5))
         cleanup.append(d.stop)
         server = conftest.RealddsServer(domain, [], name="bench-d555-server")
         cleanup.append(server.kill)
@@ -125,7 +154,9 @@ def measure(build, rounds):
                     return ev
             raise BenchError(f"no `changed` event within {timeout} s: {what}")
 
-        legs = {k: [] for k in ("device_to_observer", "observer_to_listed", "device_to_listed", "quit_to_unlisted")}
+        legs = {k: [] for k in ("device_to_daemon_dds", "daemon_dds_to_listed", "device_to_observer",
+                                "device_to_listed", "quit_to_unlisted")}
+        listed_at = []  # per round: (when it made its device, when it was listed)
         extra_changes = {"coming": 0, "going": 0}
         client_tool = os.path.join(ROOT, "tests", "tools", "realdds_client.py")
         for i in range(rounds):
@@ -143,8 +174,8 @@ def measure(build, rounds):
                 seen = [observer.wait(lambda x: x.get("t", 0) >= made, 10, "the observer's discovery")]
             first = min(x["t"] for x in seen)
             legs["device_to_observer"].append((first - made) * 1000)
-            legs["observer_to_listed"].append((ev["t"] - first) * 1000)
             legs["device_to_listed"].append((ev["t"] - made) * 1000)
+            listed_at.append((made, ev["t"]))
             log(f"round {i}: device -> observer {(first - made) * 1000:.1f} ms, -> listed {(ev['t'] - made) * 1000:.1f} ms")
             extra_changes["coming"] += len(changes(0.3))
             t0 = time.monotonic()
@@ -156,10 +187,21 @@ def measure(build, rounds):
             legs["quit_to_unlisted"].append((ev["t"] - t0) * 1000)
             client.close()
             extra_changes["going"] += len(changes(0.3))
+        # The daemon's own discovery of each round's client, from its trace (written by
+        # now: Cyclone flushes each line).
+        found = list(daemon_discoveries(trace, INFO["topic-root"]).values())
+        if len(found) != rounds:
+            raise BenchError(f"the daemon's trace has {len(found)} clients' discoveries, not {rounds}")
+        for (made, listed), wall in zip(listed_at, found):
+            taken = wall - offset
+            legs["device_to_daemon_dds"].append((taken - made) * 1000)
+            legs["daemon_dds_to_listed"].append((listed - taken) * 1000)
         out = {"rounds": rounds, **{k: stats(v) for k, v in legs.items()},
                "extra_changed_events": extra_changes,
-               "note": "observer: PyPI cyclonedds reading DCPSPublication/DCPSSubscription; "
-                       "client: pyrealdds dds.device (realdds_client.py), no streams"}
+               "note": "daemon's DDS: its Cyclone discovery trace (SEDP NEW); observer: PyPI cyclonedds "
+                       "reading DCPSPublication/DCPSSubscription; client: pyrealdds dds.device "
+                       "(realdds_client.py), no streams; quit -> unlisted includes the daemon's 50 ms "
+                       "hold of a summary that loses a client"}
         return out
     finally:
         for fn in reversed(cleanup):
