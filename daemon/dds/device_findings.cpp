@@ -79,15 +79,18 @@ bool DomainBook::set_in_use(const std::string& topic_root, const model::InUse& i
   return false;
 }
 
-void DomainBook::flush_in_use(Clock::time_point now) {
+std::optional<DomainBook::Clock::time_point> DomainBook::flush_in_use(Clock::time_point now) {
+  std::optional<Clock::time_point> next;
   for (auto it = in_use_held_.begin(); it != in_use_held_.end();) {
     if (it->second.until > now) {
+      if (!next || it->second.until < *next) next = it->second.until;
       ++it;
       continue;
     }
     write_in_use(it->first, std::move(it->second.in_use));
     it = in_use_held_.erase(it);
   }
+  return next;
 }
 
 void DomainBook::write_in_use(const std::string& id, std::optional<model::InUse> in_use) {

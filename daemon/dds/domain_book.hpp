@@ -188,8 +188,9 @@ class DomainBook {
   // by then (flush_in_use); one that takes nothing away is written at once.
   // True when a hold began: the main loop must tick by its end (next_deadline).
   bool set_in_use(const std::string& topic_root, const model::InUse& in_use, Clock::time_point now);
-  // The held summaries whose time has come, into the table (the main loop's tick).
-  void flush_in_use(Clock::time_point now);
+  // The held summaries whose time has come, into the table (the main loop's tick);
+  // returns when the next one still held is due.
+  std::optional<Clock::time_point> flush_in_use(Clock::time_point now);
   // Whether the device's notification set came whole when asked (DescriptionFetcher),
   // into its document: "ready", and "ready-stage" while not. Kept across its
   // announcements until the next fetch concludes.

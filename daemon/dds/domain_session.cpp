@@ -301,6 +301,9 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   using namespace std::chrono;
   if (participant_ <= 0) return kIdle;  // nothing joined: a reload or rebuild starts it anew
   Clock::duration wait = std::min(kIdle, share_.tick(now));
+  std::optional<Clock::time_point> held;  // in-use summaries held (a client leaving): before the reader too
+  { std::lock_guard lock(mutex_); held = book_.flush_in_use(now); }
+  if (held) wait = std::min(wait, *held - now);
   if (reader_ <= 0) {
     const bool heard = servers_heard();
     if (now - joined_at_ < options_.settle && !heard) return std::min(wait, options_.settle - (now - joined_at_));
@@ -328,7 +331,6 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
     // reconcile_due(now) holds as above: only this (the main) thread moves the
     // book's reconcile deadline.
     due = book_.tick(now, matched);
-    book_.flush_in_use(now);
     if (due.refresh) ++refreshes_;
     lease_losses = book_.take_lease_losses();
     present = book_.topic_roots();

@@ -407,9 +407,9 @@ TEST_F(Book, AClientLeavingIsOneChangeHeldUntilItsEndpointsAreGone) {
   EXPECT_TRUE(book.set_in_use(root, InUse{1, {}}, t0 + 1s));
   EXPECT_EQ(book.next_deadline(t0 + 1s), t0 + 1s + options.in_use_hold);
   EXPECT_FALSE(book.set_in_use(root, InUse{0, {}}, t0 + 1s + 20ms));  // the hold is not moved on
-  book.flush_in_use(t0 + 1s + options.in_use_hold - 1ms);
+  EXPECT_EQ(book.flush_in_use(t0 + 1s + options.in_use_hold - 1ms), t0 + 1s + options.in_use_hold);
   EXPECT_EQ(table.generation(), generation);
-  book.flush_in_use(t0 + 1s + options.in_use_hold);
+  EXPECT_FALSE(book.flush_in_use(t0 + 1s + options.in_use_hold));
   EXPECT_EQ(table.generation(), generation + 1);
   EXPECT_TRUE(in_use().is_null());
   // A client coming back within the hold of a leaving one: written at once, one change.
