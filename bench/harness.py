@@ -27,6 +27,9 @@ same run:
   fanout        100 SSE watchers: change -> last watcher
   share         a USB camera plugged on host A -> listed on host B, sharing on, and unplugged
                 (two network namespaces, umockdev; bench/share_latency.py)
+  clients       a realdds client making a device -> the daemon's own DDS discovery of it -> the
+                camera's `changed` event counting it, and quit -> the event without it
+                (bench/client_latency.py)
   describe      Camera Discovery of a 5-stream realdds camera: first request -> description,
                 and a cached one, against pyrealdds' own device.wait_until_ready()
   idle          CPU-seconds per minute with N devices, with no client and with the watchers
@@ -82,7 +85,7 @@ MODES = {
                   open_reps=1),
 }
 SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout", "describe",
-            "idle", "open", "scale10k", "share"]
+            "idle", "open", "scale10k", "share", "clients"]
 
 
 import scale_large  # noqa: E402
@@ -237,6 +240,7 @@ class Bench:
             self.section("open", self.bench_open)
             self.section("scale10k", lambda: scale_large.run(self))
             self.section("share", self.bench_share)
+            self.section("clients", self.bench_clients)
         finally:
             for fn in reversed(self.cleanup):
                 try:
@@ -540,6 +544,16 @@ http {{
                            timeout=60 + 5 * rounds)
         if r.returncode != 0:
             raise BenchError(f"share_latency.py exited {r.returncode}: {r.stderr[-1500:]}")
+        return json.loads(r.stdout.strip().splitlines()[-1])
+
+    # -- clients ----------------------------------------------------------------------------
+    def bench_clients(self):
+        rounds = {"full": 30, "quick": 10, "smoke": 2}[self.mode]
+        r = subprocess.run([sys.executable, os.path.join(HERE, "client_latency.py"), "--build", self.build,
+                            "--rounds", str(rounds)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           timeout=60 + 5 * rounds)
+        if r.returncode != 0:
+            raise BenchError(f"client_latency.py exited {r.returncode}: {r.stderr[-1500:]}")
         return json.loads(r.stdout.strip().splitlines()[-1])
 
     # -- fan-out ----------------------------------------------------------------------------
@@ -1034,6 +1048,21 @@ http {{
                                    f"`removed` {f(med(sh['unplug_to_a']), 2)} ms",
                          "ratio": "",
                          "target": "≤ 5 ms plus DDS delivery: " + verdict(sh["a_to_b"]["max"] <= 5)})
+        cl = R.get("clients", {})
+        if "daemon_dds_to_listed" in cl:
+            own = cl["daemon_dds_to_listed"]
+            worst = own.get("p99", own.get("max"))
+            rows.append({"comparison": f"clients: a realdds client's first endpoint → its camera's `changed` "
+                                       f"({cl['rounds']} clients)",
+                         "rs_discoveryd": f"daemon's DDS discovery → `changed` {f(med(own), 2)} ms{spread(own, 2)}; "
+                                          f"device made → `changed` {f(med(cl['device_to_listed']), 1)} ms"
+                                          f"{spread(cl['device_to_listed'], 1)}; quit → `changed` "
+                                          f"{f(med(cl['quit_to_unlisted']), 1)} ms",
+                         "anchor": f"device made → the daemon's DDS discovery "
+                                   f"{f(med(cl['device_to_daemon_dds']), 1)} ms{spread(cl['device_to_daemon_dds'], 1)}; "
+                                   f"→ another stack's (observer) {f(med(cl['device_to_observer']), 1)} ms",
+                         "ratio": "",
+                         "target": "≤ 100 ms beyond DDS discovery: " + verdict(worst is not None and worst <= 100)})
         idle = R.get("idle", {})
         if "cpu_s_per_min_no_clients" in idle:
             v = idle["cpu_s_per_min_no_clients"]

@@ -387,6 +387,14 @@ std::optional<SharingHost> sharing_host(const Device& device) {
   return out;
 }
 
+std::optional<DeviceInUse> in_use_of(const Device& device) {
+  const auto doc = nlohmann::json::parse(device.json, nullptr, false);
+  if (!doc.is_object() || !doc.contains("in-use")) return std::nullopt;
+  auto in_use = rsd::model::device_from_json(doc).in_use;
+  if (!in_use) return std::nullopt;
+  return DeviceInUse{in_use->clients, std::move(in_use->streaming)};
+}
+
 Device parse_device(const std::string& json_text) {
   auto doc = nlohmann::json::parse(json_text, nullptr, false);
   if (doc.is_discarded()) throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: not JSON");

@@ -5,6 +5,8 @@
 
 #include "log/log.hpp"
 
+#include <algorithm>
+
 namespace rsd::dds {
 
 namespace {
@@ -43,6 +45,10 @@ std::optional<std::set<std::string>> DomainBook::servers_of(const std::string& t
   return out;
 }
 
+bool DomainBook::has_device(std::string_view topic_root) const {
+  return devices_.count(device_id(options_.domain, std::string(topic_root))) > 0;
+}
+
 std::set<std::string> DomainBook::servers_to_hear() const {
   std::set<std::string> out;
   for (const auto& [id, device] : devices_)
@@ -51,14 +57,46 @@ std::set<std::string> DomainBook::servers_to_hear() const {
   return out;
 }
 
-void DomainBook::set_in_use(const std::string& topic_root, const model::InUse& in_use) {
+bool DomainBook::set_in_use(const std::string& topic_root, const model::InUse& in_use, Clock::time_point now) {
   const std::string id = device_id(options_.domain, topic_root);
   const auto it = devices_.find(id);
-  if (it == devices_.end()) return;
-  std::optional<model::InUse> now;
-  if (in_use.clients > 0) now = in_use;
-  if (it->second.doc.in_use == now) return;
-  it->second.doc.in_use = std::move(now);
+  if (it == devices_.end()) return false;
+  std::optional<model::InUse> next;
+  if (in_use.clients > 0) next = in_use;
+  // Takes something away from what the document says: a client, or a stream.
+  const auto& was = it->second.doc.in_use;
+  const bool loses = was && (!next || next->clients < was->clients ||
+                             std::any_of(was->streaming.begin(), was->streaming.end(), [&](const std::string& s) {
+                               return std::find(next->streaming.begin(), next->streaming.end(), s) == next->streaming.end();
+                             }));
+  if (loses && options_.in_use_hold.count() > 0) {
+    auto [held, fresh] = in_use_held_.try_emplace(id, HeldInUse{next, now + options_.in_use_hold});
+    if (!fresh) held->second.in_use = std::move(next);  // its time stays the first loss's
+    return fresh;
+  }
+  in_use_held_.erase(id);
+  write_in_use(id, std::move(next));
+  return false;
+}
+
+std::optional<DomainBook::Clock::time_point> DomainBook::flush_in_use(Clock::time_point now) {
+  std::optional<Clock::time_point> next;
+  for (auto it = in_use_held_.begin(); it != in_use_held_.end();) {
+    if (it->second.until > now) {
+      if (!next || it->second.until < *next) next = it->second.until;
+      ++it;
+      continue;
+    }
+    write_in_use(it->first, std::move(it->second.in_use));
+    it = in_use_held_.erase(it);
+  }
+  return next;
+}
+
+void DomainBook::write_in_use(const std::string& id, std::optional<model::InUse> in_use) {
+  const auto it = devices_.find(id);
+  if (it == devices_.end() || it->second.doc.in_use == in_use) return;
+  it->second.doc.in_use = std::move(in_use);
   table_.upsert(id, it->second.doc, /*heard=*/false);  // a client came, not the camera
 }
 

@@ -397,6 +397,7 @@ std::optional<DomainBook::Clock::time_point> DomainBook::next_deadline(Clock::ti
   };
   if (reconcile_at_) consider(*reconcile_at_);
   for (const auto& [id, until] : unresponsive_) consider(until);  // removal graces ending
+  for (const auto& [id, held] : in_use_held_) consider(held.until);
   for (const auto& [h, w] : writers_)
     if (!w.sent && !idle_writers_.count(w.identity.guid)) consider(w.matched_at + options_.silent_grace);
   return next;

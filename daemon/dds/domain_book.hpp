@@ -22,6 +22,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <string_view>
 #include <unordered_set>
 #include <utility>
 #include <vector>
@@ -90,6 +91,11 @@ struct BookOptions {
   // unresponsive, this long, and is not removed if heard again by then (0: removed
   // at once, as realdds does). A lossy link then does not make a dashboard flicker.
   std::chrono::milliseconds removal_grace{0};
+  // A client leaving takes its endpoints away one by one (its stream readers, then
+  // its device's, then its participant): an in-use summary losing a client or a
+  // stream is held this long, so the camera changes once when the client goes. A
+  // client coming, or a stream opened, is written at once.
+  std::chrono::milliseconds in_use_hold{50};
   LostServerTimes lost;
 };
 
@@ -169,14 +175,22 @@ class DomainBook {
   // The participants announcing the device `topic_root` (its servers: never its
   // clients); nothing when there is no such device.
   std::optional<std::set<std::string>> servers_of(const std::string& topic_root) const;
+  // Whether a device with this topic-root is kept.
+  bool has_device(std::string_view topic_root) const;
   // The participants a new reader must not be made before: the servers of the
   // devices kept and the lost servers (their broadcasts to a reader made before
   // Cyclone knows their writers are lost for good).
   std::set<std::string> servers_to_hear() const;
   // Who uses the device, in short, into its document (model::InUse; none while it has
   // no client). The table changes only when the summary does: a client's burst of
-  // endpoints is one change.
-  void set_in_use(const std::string& topic_root, const model::InUse& in_use);
+  // endpoints is one change. One that takes something away (a client, a stream) is
+  // held for BookOptions::in_use_hold from the first such, then written as it is
+  // by then (flush_in_use); one that takes nothing away is written at once.
+  // True when a hold began: the main loop must tick by its end (next_deadline).
+  bool set_in_use(const std::string& topic_root, const model::InUse& in_use, Clock::time_point now);
+  // The held summaries whose time has come, into the table (the main loop's tick);
+  // returns when the next one still held is due.
+  std::optional<Clock::time_point> flush_in_use(Clock::time_point now);
   // Whether the device's notification set came whole when asked (DescriptionFetcher),
   // into its document: "ready", and "ready-stage" while not. Kept across its
   // announcements until the next fetch concludes.
@@ -252,6 +266,13 @@ class DomainBook {
   std::vector<LeaseLoss> lease_losses_;
   // Devices in their removal grace: device id -> when they are removed.
   std::map<std::string, Clock::time_point> unresponsive_;
+  // In-use summaries held (set_in_use), by device id: the latest, and when it is written.
+  struct HeldInUse {
+    std::optional<model::InUse> in_use;
+    Clock::time_point until;
+  };
+  std::map<std::string, HeldInUse> in_use_held_;
+  void write_in_use(const std::string& id, std::optional<model::InUse> in_use);
   void mark_unresponsive(const std::string& id, Clock::time_point now);
   void end_graces(Clock::time_point now);
   std::uint64_t accepted_ = 0, stopping_ = 0;

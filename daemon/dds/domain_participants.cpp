@@ -326,15 +326,23 @@ void DomainSession::update_in_use_of_topics(const std::vector<std::string>& topi
 }
 
 void DomainSession::update_in_use(const std::set<std::string>& roots) {
+  bool held = false;
   for (const auto& root : roots)
-    if (auto servers = book_.servers_of(root)) book_.set_in_use(root, model::summary_of(participants_.clients(root, *servers)));
+    if (auto servers = book_.servers_of(root))
+      held = book_.set_in_use(root, model::summary_of(participants_.clients(root, *servers, known_root())),
+                              Clock::now()) || held;
+  if (held) wake();  // the main loop sleeps past a hold it does not know of: tick() writes it
+}
+
+realdds_topics::KnownRoot DomainSession::known_root() const {
+  return [this](std::string_view root) { return book_.has_device(root); };
 }
 
 std::optional<model::DeviceClients> DomainSession::clients(const std::string& topic_root) const {
   std::lock_guard lock(mutex_);
   auto servers = book_.servers_of(topic_root);
   if (!servers) return std::nullopt;
-  return participants_.clients(topic_root, *servers);
+  return participants_.clients(topic_root, *servers, known_root());
 }
 
 std::vector<model::Participant> DomainSession::participants() const {

@@ -301,6 +301,9 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   using namespace std::chrono;
   if (participant_ <= 0) return kIdle;  // nothing joined: a reload or rebuild starts it anew
   Clock::duration wait = std::min(kIdle, share_.tick(now));
+  std::optional<Clock::time_point> held;  // in-use summaries held (a client leaving): before the reader too
+  { std::lock_guard lock(mutex_); held = book_.flush_in_use(now); }
+  if (held) wait = std::min(wait, *held - now);
   if (reader_ <= 0) {
     const bool heard = servers_heard();
     if (now - joined_at_ < options_.settle && !heard) return std::min(wait, options_.settle - (now - joined_at_));
@@ -394,7 +397,11 @@ void DomainSession::take_samples(dds_entity_t reader) {
         std::lock_guard lock(mutex_);
         identify(reader, info.publication_handle);
         book_.sample(info.publication_handle, std::move(parsed));
-        if (!root.empty()) update_in_use({std::move(root)});  // its clients may have come first
+        if (!root.empty()) {  // its clients may have come first, counted for a camera its root extends
+          std::set<std::string> roots{root};
+          for (std::size_t u = root.find('_'); u != std::string::npos; u = root.find('_', u + 1)) roots.insert(root.substr(0, u));
+          update_in_use(roots);
+        }
       } catch (const std::exception& e) {
         log::error(std::string("device-info sample dropped: ") + e.what());
       }

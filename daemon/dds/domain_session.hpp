@@ -150,6 +150,8 @@ class DomainSession {
   void update_in_use(const std::set<std::string>& roots);
   // The same, for the cameras whose topics `topics` may be.
   void update_in_use_of_topics(const std::vector<std::string>& topics);
+  // Whether a topic-root is a camera's, for the clients' bookkeeping (under mutex_).
+  realdds_topics::KnownRoot known_root() const;
   // Before the reader exists: whether every server it waits for has its
   // device-info writer known to the participant (takes mutex_).
   bool servers_heard() const;

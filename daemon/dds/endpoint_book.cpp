@@ -34,9 +34,22 @@ std::vector<std::string> roots_of(std::string_view topic) {
   return out;
 }
 
-bool is_camera_topic(std::string_view topic, std::string_view root) {
-  const auto roots = roots_of(topic);
-  return std::find(roots.begin(), roots.end(), root) != roots.end();
+std::string_view stream_of(std::string_view topic, std::string_view root, const KnownRoot& known) {
+  if (!topic.starts_with(kStreamPrefix)) return {};
+  const std::string_view rest = topic.substr(kStreamPrefix.size());
+  if (rest.size() <= root.size() + 1 || !rest.starts_with(root) || rest[root.size()] != '_') return {};
+  const std::string_view stream = rest.substr(root.size() + 1);
+  if (known)
+    for (std::size_t i = stream.find('_'); i != std::string_view::npos; i = stream.find('_', i + 1))
+      if (i > 0 && i + 1 < stream.size() && known(rest.substr(0, root.size() + 1 + i))) return {};
+  return stream;
+}
+
+bool is_camera_topic(std::string_view topic, std::string_view root, const KnownRoot& known) {
+  for (const auto suffix : {kNotification, kControl, kMetadata})
+    if (!root.empty() && topic.size() == root.size() + suffix.size() && topic.starts_with(root) && topic.ends_with(suffix))
+      return true;
+  return !stream_of(topic, root, known).empty();
 }
 
 }  // namespace realdds_topics
@@ -139,7 +152,8 @@ std::string_view EndpointBook::topic_of(const std::string& participant, const st
 std::uint64_t EndpointBook::refused(EndpointRefusal r) const { return refused_[static_cast<int>(r)]; }
 
 std::map<std::string, EndpointBook::Use> EndpointBook::users_of(const std::string& root,
-                                                                const std::set<std::string>& except) const {
+                                                                const std::set<std::string>& except,
+                                                                const realdds_topics::KnownRoot& known) const {
   std::map<std::string, Use> out;
   // A client writes the camera's control and reads the rest; a server (a second
   // one starting before its device-info is heard, too) does the opposite, so only
@@ -160,7 +174,7 @@ std::map<std::string, EndpointBook::Use> EndpointBook::users_of(const std::strin
     if (auto t = topics_.find(root + std::string(suffix)); t != topics_.end()) take(*t, false, {});
   const std::string prefix = std::string(realdds_topics::kStreamPrefix) + root + "_";
   for (auto t = topics_.lower_bound(prefix); t != topics_.end() && t->first.starts_with(prefix); ++t)
-    if (t->first.size() > prefix.size()) take(*t, false, std::string_view(t->first).substr(prefix.size()));
+    if (const auto stream = realdds_topics::stream_of(t->first, root, known); !stream.empty()) take(*t, false, stream);
   return out;
 }
 

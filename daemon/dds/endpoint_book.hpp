@@ -7,6 +7,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <set>
 #include <string>
@@ -42,8 +43,15 @@ inline constexpr std::string_view kStreamPrefix = "rt/";
 // The topic-roots `topic` may belong to (a stream topic names its root only up to
 // one of its '_'); the caller keeps those that are cameras.
 std::vector<std::string> roots_of(std::string_view topic);
+// Whether a topic-root is a known camera's (DomainBook's); an empty one knows none.
+using KnownRoot = std::function<bool(std::string_view)>;
+// The stream `topic` carries for the camera `root` ("Depth" of rt/<root>_Depth),
+// or "" when it is no stream topic of that camera. A stream topic of another
+// known camera whose root extends this one (rt/<root>_X_Depth, where <root>_X is
+// a camera) is that camera's: the longest known root owns it.
+std::string_view stream_of(std::string_view topic, std::string_view root, const KnownRoot& known = {});
 // Whether `topic` is one a client of the camera `root` has.
-bool is_camera_topic(std::string_view topic, std::string_view root);
+bool is_camera_topic(std::string_view topic, std::string_view root, const KnownRoot& known = {});
 }  // namespace realdds_topics
 
 class EndpointBook {
@@ -77,8 +85,10 @@ class EndpointBook {
     std::map<std::string, std::size_t> readers;  // per stream, its readers
   };
   // Every participant with a client's endpoint on the topics of the camera `root`
-  // (a control writer, a reader of the others), but those in `except` (its servers).
-  std::map<std::string, Use> users_of(const std::string& root, const std::set<std::string>& except) const;
+  // (a control writer, a reader of the others), but those in `except` (its servers);
+  // `known` says the other cameras' roots, so one's streams are never another's.
+  std::map<std::string, Use> users_of(const std::string& root, const std::set<std::string>& except,
+                                      const realdds_topics::KnownRoot& known = {}) const;
 
  private:
   struct TopicUse {

@@ -87,9 +87,10 @@ std::string ParticipantBook::endpoint_gone(const std::string& participant, const
   return endpoints_.gone(participant, endpoint);
 }
 
-model::DeviceClients ParticipantBook::clients(const std::string& topic_root, const std::set<std::string>& servers) const {
+model::DeviceClients ParticipantBook::clients(const std::string& topic_root, const std::set<std::string>& servers,
+                                              const realdds_topics::KnownRoot& known) const {
   model::DeviceClients out;
-  for (auto& [guid, use] : endpoints_.users_of(topic_root, servers)) {
+  for (auto& [guid, use] : endpoints_.users_of(topic_root, servers, known)) {
     model::Client c;
     c.guid = guid;
     c.vendor_id = model::vendor_id_of(guid);
@@ -108,7 +109,7 @@ model::DeviceClients ParticipantBook::clients(const std::string& topic_root, con
     if (auto r = ros_nodes_.find(guid); r != ros_nodes_.end())
       for (const auto& node : r->second)
         if (std::any_of(node.endpoints.begin(), node.endpoints.end(), [&, &owner = guid](const std::string& e) {
-              return realdds_topics::is_camera_topic(endpoints_.topic_of(owner, e), topic_root);
+              return realdds_topics::is_camera_topic(endpoints_.topic_of(owner, e), topic_root, known);
             }))
           c.ros_nodes.push_back(node.name);
     for (const auto& [stream, readers] : use.readers) out.streams[stream] += readers;

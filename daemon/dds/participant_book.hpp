@@ -66,8 +66,10 @@ class ParticipantBook {
 
   // The clients of the camera `topic_root`: every participant but its `servers` with
   // an endpoint on its topics (EndpointBook::users_of), named from its announcement
-  // when it has been heard, and the streams read now with their readers.
-  model::DeviceClients clients(const std::string& topic_root, const std::set<std::string>& servers) const;
+  // when it has been heard, and the streams read now with their readers. `known`
+  // says which roots are cameras (a stream of a longer known root is not this one's).
+  model::DeviceClients clients(const std::string& topic_root, const std::set<std::string>& servers,
+                               const realdds_topics::KnownRoot& known = {}) const;
 
   // The daemon's participant was made anew: it hears every alive peer again and
   // those it does not are not there; the gone ones are kept.

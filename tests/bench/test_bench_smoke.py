@@ -8,7 +8,7 @@ import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "removal", "scale", "fanout", "idle",
-            "open", "scale10k", "share"]
+            "open", "scale10k", "share", "clients"]
 
 
 def test_bench_run_smoke(tmp_path):
@@ -42,6 +42,8 @@ def test_bench_run_smoke(tmp_path):
         assert s["share"][leg]["n"] == s["share"]["rounds"]
     for path in ("query-devices", "devices-changed", "librealsense", "realdds"):  # each beside its anchor
         assert s["open"]["paths"][path]["ready_ms"]["n"] >= 1 and s["open"]["paths"][path]["first_frame_ms"]["n"] >= 1
+    for leg in ("device_to_daemon_dds", "daemon_dds_to_listed", "device_to_listed", "quit_to_unlisted"):
+        assert s["clients"][leg]["n"] == s["clients"]["rounds"]
     big = s["scale10k"]  # the 10,000-camera row, small: every camera listed, memory split, reads, fan-out
     # The floor holds at most a camera a domain (none when a silent writer took the one slot).
     assert big["devices"] > 0 and big["floor_devices"] <= big["domains"], big

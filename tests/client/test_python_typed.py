@@ -251,7 +251,14 @@ def test_mypy_strict_is_clean_on_the_package_and_types_its_users(tmp_path):
                     "    return [p.name for p in rsdiscovery.participants() if p.devices > 0]\n\n\n"
                     "def shared(host: str) -> list[tuple[str, tuple[str, ...]]]:\n"
                     "    return [(d.host.name, d.host.addresses) for d in rsdiscovery.list_devices(host=host)\n"
-                    "            if d.host is not None]\n")
+                    "            if d.host is not None]\n\n\n"
+                    "def streamed() -> list[tuple[str, int, tuple[str, ...]]]:\n"
+                    "    first = rsdiscovery.wait_for(in_use=True, timeout=5.0)\n"
+                    "    with rsdiscovery.Client() as c, c.watcher(in_use=True) as w:\n"
+                    "        for ev in rsdiscovery.watch(in_use=False):\n"
+                    "            break\n"
+                    "        return [(d.id, d.in_use.clients, d.in_use.streaming) for d in w.devices() + [first]\n"
+                    "                if d.in_use is not None]\n")
     r = mypy(tmp_path, str(good))
     assert r.returncode == 0, r.stdout + r.stderr
     bad = tmp_path / "bad.py"
@@ -259,11 +266,15 @@ def test_mypy_strict_is_clean_on_the_package_and_types_its_users(tmp_path):
                    "dev = rsdiscovery.get_device('x')\n"
                    "length: int = len(dev.serial)\n"
                    "dev.domain = 3\n"
-                   "sharer: str = dev.host.name\n")
+                   "sharer: str = dev.host.name\n"
+                   "clients: int = dev.in_use.clients\n"
+                   "rsdiscovery.watch(in_use='yes')\n")
     r = mypy(tmp_path, str(bad))
     assert r.returncode == 1, r.stdout + r.stderr
     errors = [line for line in r.stdout.splitlines() if ": error:" in line]
-    assert len(errors) == 3, r.stdout
+    assert len(errors) == 5, r.stdout
     assert errors[0].startswith("bad.py:4: error:") and "str | None" in errors[0], r.stdout  # serial may be None
     assert errors[1].startswith("bad.py:5: error:") and "read-only" in errors[1], r.stdout  # frozen
     assert errors[2].startswith("bad.py:6: error:") and "None" in errors[2], r.stdout  # host None unless shared
+    assert errors[3].startswith("bad.py:7: error:") and "None" in errors[3], r.stdout  # in_use None unless used
+    assert errors[4].startswith("bad.py:8: error:") and "in_use" in errors[4], r.stdout  # a bool, typed

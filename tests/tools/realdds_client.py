@@ -4,7 +4,9 @@ librealsense's realdds (pyrealsense2.pyrealdds) does. It makes a participant nam
 --name and `dds.device(p, info)` for --info (a control writer, a notification
 reader), waits until the device is ready, then for each --stream opens that
 stream's topic (rt/<topic-root>_<name>, as librealsense does) and streams it.
-It prints {"ready": true, "streams": [...]} and then waits for a line on stdin:
+It prints {"device": T} as it makes the device (T: its time.monotonic(), one clock
+for every process of the host), {"ready": true, "streams": [...]} once ready, and
+then waits for a line on stdin:
 "quit" ends it cleanly (every entity deleted); a closed stdin too.
 """
 import argparse
@@ -26,6 +28,7 @@ def main():
     info = json.loads(args.info)
     p = dds.participant()
     p.init(args.domain, args.name)
+    print(json.dumps({"device": time.monotonic()}), flush=True)
     dev = dds.device(p, dds.message.device_info.from_json(info))
     deadline = time.monotonic() + 20
     while not dev.is_ready():  # polled: wait_until_ready sleeps 500 ms a turn

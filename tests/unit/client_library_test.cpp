@@ -553,6 +553,17 @@ TEST(Device, SharingHostOfARemoteUsbCameraOnly) {
   EXPECT_EQ(unnamed->name, "");
 }
 
+TEST(Device, InUseOfACameraWithClientsOnly) {
+  const auto used = parse_device(R"({"id":"dds-0-realsense.D555_1","source":"dds","name":"x",
+    "in-use":{"clients":2,"streaming":["Depth","Color"]}})");
+  const auto in_use = in_use_of(used);
+  ASSERT_TRUE(in_use);
+  EXPECT_EQ(in_use->clients, 2u);
+  EXPECT_EQ(in_use->streaming, (std::vector<std::string>{"Depth", "Color"}));
+  EXPECT_FALSE(in_use_of(parse_device(R"({"id":"dds-0-realsense.D555_2","source":"dds","name":"x"})")));
+  EXPECT_FALSE(in_use_of(parse_device(R"({"id":"usb-1","source":"usb","name":"x"})")));
+}
+
 ErrorCode code_of(const std::function<void()>& f) {
   try {
     f();

@@ -402,3 +402,46 @@ TEST_F(Book, ALostServerIsFoundFollowingOnlyTheBooksDeadlines) {
   ASSERT_TRUE(at);
   EXPECT_EQ(*at, t0 + 2500ms);
 }
+
+TEST_F(Book, AClientLeavingIsOneChangeHeldUntilItsEndpointsAreGone) {
+  using rsd::model::InUse;
+  const std::string root = "realsense/D455_100";
+  book.writer_matched(1, writer(1, 1), t0);
+  book.sample(1, info("100"));
+  const auto in_use = [&]() { return (*table.find(id("100"))).value("in-use", nlohmann::json()); };
+  // Coming, and opening a stream: written at once.
+  auto generation = table.generation();
+  EXPECT_FALSE(book.set_in_use(root, InUse{1, {}}, t0));
+  EXPECT_FALSE(book.set_in_use(root, InUse{1, {}}, t0));  // its device's second endpoint: no change
+  EXPECT_FALSE(book.set_in_use(root, InUse{1, {"Depth"}}, t0));
+  EXPECT_EQ(table.generation(), generation + 2);
+  EXPECT_EQ(in_use(), (nlohmann::json{{"clients", 1}, {"streaming", {"Depth"}}}));
+  // Leaving: its stream reader goes, then its device's endpoints; held from the
+  // first loss, written once, as it is at the end of the hold.
+  generation = table.generation();
+  EXPECT_TRUE(book.set_in_use(root, InUse{1, {}}, t0 + 1s));
+  EXPECT_EQ(book.next_deadline(t0 + 1s), t0 + 1s + options.in_use_hold);
+  EXPECT_FALSE(book.set_in_use(root, InUse{0, {}}, t0 + 1s + 20ms));  // the hold is not moved on
+  EXPECT_EQ(book.flush_in_use(t0 + 1s + options.in_use_hold - 1ms), t0 + 1s + options.in_use_hold);
+  EXPECT_EQ(table.generation(), generation);
+  EXPECT_FALSE(book.flush_in_use(t0 + 1s + options.in_use_hold));
+  EXPECT_EQ(table.generation(), generation + 1);
+  EXPECT_TRUE(in_use().is_null());
+  // A client coming back within the hold of a leaving one: written at once, one change.
+  EXPECT_FALSE(book.set_in_use(root, InUse{1, {}}, t0 + 3s));
+  generation = table.generation();
+  EXPECT_TRUE(book.set_in_use(root, InUse{0, {}}, t0 + 4s));
+  EXPECT_FALSE(book.set_in_use(root, InUse{1, {}}, t0 + 4s + 10ms));
+  book.flush_in_use(t0 + 5s);
+  EXPECT_EQ(table.generation(), generation);  // nothing changed in the end
+  // With no hold, a loss is written at once.
+  BookOptions none = options;
+  none.in_use_hold = 0ms;
+  rsd::SharedTable other;
+  DomainBook unheld{other, none};
+  unheld.writer_matched(1, writer(1, 1), t0);
+  unheld.sample(1, info("100"));
+  unheld.set_in_use(root, InUse{1, {}}, t0);
+  EXPECT_FALSE(unheld.set_in_use(root, InUse{0, {}}, t0));
+  EXPECT_FALSE((*other.find(id("100"))).contains("in-use"));
+}

@@ -282,3 +282,44 @@ TEST(EndpointBook, RandomClientsOfTwoCamerasAreNeverCountedForTheOther) {
     EXPECT_EQ(book.endpoints().total(), 0u);
   }
 }
+
+TEST(RealddsTopics, AStreamOfALongerKnownRootIsThatCamerasOnly) {
+  const auto known = [](std::string_view r) { return r == "realsense/D555_1" || r == "realsense/D555_1_X"; };
+  EXPECT_EQ(topics::stream_of("rt/realsense/D555_1_Depth", "realsense/D555_1", known), "Depth");
+  EXPECT_EQ(topics::stream_of("rt/realsense/D555_1_Infrared 1", "realsense/D555_1", known), "Infrared 1");
+  // rt/<R>_X_Depth, where <R>_X is a camera: X's Depth, not R's stream "X_Depth".
+  EXPECT_EQ(topics::stream_of("rt/realsense/D555_1_X_Depth", "realsense/D555_1", known), "");
+  EXPECT_EQ(topics::stream_of("rt/realsense/D555_1_X_Depth", "realsense/D555_1_X", known), "Depth");
+  // Without the longer camera known, R's stream keeps its '_' verbatim.
+  EXPECT_EQ(topics::stream_of("rt/realsense/D555_1_X_Depth", "realsense/D555_1"), "X_Depth");
+  EXPECT_EQ(topics::stream_of("rt/realsense/D555_10_Depth", "realsense/D555_1", known), "");
+  EXPECT_EQ(topics::stream_of("realsense/D555_1/control", "realsense/D555_1", known), "");
+  EXPECT_TRUE(topics::is_camera_topic("realsense/D555_1/control", "realsense/D555_1", known));
+  EXPECT_FALSE(topics::is_camera_topic("realsense/D555_1_X/control", "realsense/D555_1", known));
+  EXPECT_FALSE(topics::is_camera_topic("rt/realsense/D555_1_X_Depth", "realsense/D555_1", known));
+}
+
+TEST(ParticipantBookClients, AStreamOfACameraWhoseRootExtendsAnotherIsCountedForItOnly) {
+  ParticipantBook book;
+  const std::string longer = kRoot + "_X";  // a camera whose root is kRoot + "_X"
+  const auto known = [&](std::string_view r) { return r == kRoot || r == longer; };
+  server(book);
+  server(book, longer, kOther);
+  device_of(book, kApp, longer, "T1");
+  book.endpoint_alive(kApp, ep(kApp, 3), "rt/" + longer + "_Depth", true, "T1");
+  EXPECT_TRUE(book.clients(kRoot, {kServer}, known).clients.empty());
+  EXPECT_TRUE(book.clients(kRoot, {kServer}, known).streams.empty());
+  const auto c = book.clients(longer, {kOther}, known);
+  ASSERT_EQ(c.clients.size(), 1u);
+  EXPECT_EQ(c.clients[0].streams, std::vector<std::string>{"Depth"});
+  EXPECT_EQ(c.streams, (std::map<std::string, std::size_t>{{"Depth", 1}}));
+  // Not knowing the longer camera, the reader is kRoot's stream "X_Depth", as named.
+  EXPECT_EQ(book.clients(kRoot, {kServer}).streams, (std::map<std::string, std::size_t>{{"X_Depth", 1}}));
+  // A client of both: each camera counts its own stream.
+  const std::string both = "0110abcd.99999999.00000000.000001c1";
+  device_of(book, both, kRoot, "T2");
+  book.endpoint_alive(both, ep(both, 3), "rt/" + kRoot + "_Depth", true, "T2");
+  book.endpoint_alive(both, ep(both, 4), "rt/" + longer + "_Depth", true, "T2");
+  EXPECT_EQ(book.clients(kRoot, {kServer}, known).streams, (std::map<std::string, std::size_t>{{"Depth", 1}}));
+  EXPECT_EQ(book.clients(longer, {kOther}, known).streams, (std::map<std::string, std::size_t>{{"Depth", 2}}));
+}

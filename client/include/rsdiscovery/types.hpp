@@ -137,6 +137,15 @@ struct SharingHost {
 // member: a member would change the layout of Device, which most calls hand out.
 RSDISCOVERY_API std::optional<SharingHost> sharing_host(const Device& device);
 
+// A network camera's clients in short (its document's "in-use"): how many DDS
+// participants use it and the streams read now; Client's clients() says who. Nothing
+// for a camera with no client. A function, as sharing_host() is, for the same reason.
+struct DeviceInUse {
+  std::size_t clients = 0;
+  std::vector<std::string> streaming;
+};
+RSDISCOVERY_API std::optional<DeviceInUse> in_use_of(const Device& device);
+
 struct DomainStatus {
   int domain = 0;
   std::string state;

@@ -35,8 +35,8 @@ from ._client import (
 )
 from ._expected import Expected, ExpectedCamera, WaitTimeout
 from ._history import DeviceHistory, GoneDevice, History, HistoryChange
-from ._model import (CameraClient, Device, DeviceClients, DomainStatus, Health, Host, Interface, Participant, Server,
-                     Usb, UsbStatus)
+from ._model import (CameraClient, Device, DeviceClients, DomainStatus, Health, Host, InUse, Interface, Participant,
+                     Server, Usb, UsbStatus)
 from ._open import DeviceGone, NotANetworkCamera, NotReady, OpenError, Pyrealsense2Missing
 from ._query import Domains
 
@@ -63,6 +63,7 @@ __all__ = [
     "HTTPError",
     "Health",
     "Host",
+    "InUse",
     "Interface",
     "MalformedReply",
     "NotANetworkCamera",

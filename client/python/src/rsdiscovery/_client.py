@@ -374,7 +374,7 @@ class Client:
               domain: Domains = None, product_line: Optional[str] = None,
               source: Optional[str] = None, complete_timeout: float = 10.0, *, serial: Optional[str] = None,
               name: Optional[str] = None, address: Optional[str] = None,
-              host: Optional[str] = None) -> Iterator[Event]:
+              host: Optional[str] = None, in_use: Optional[bool] = None) -> Iterator[Event]:
         """A generator of :class:`Event` that runs until closed (``break`` out, or ``close()``).
 
         It resumes by itself after a disconnect or a daemon restart, reporting what
@@ -382,17 +382,20 @@ class Client:
         ``last_event_id``: resume after an id saved from an earlier watch.
         ``complete_timeout``: after a daemon restart, the watch waits up to this many seconds
         for the restarted daemon's first discovery before comparing, so a camera there
-        before and after the restart is not reported removed and added again.
+        before and after the restart is not reported removed and added again. The filters
+        are :meth:`list_devices`'; with ``in_use``, a camera a client comes to is ``added``
+        and ``removed`` when its last client goes (True), the other way round (False).
         """
         w = Watcher(self, initial=initial, last_event_id=last_event_id, reconnect=reconnect, domain=domain,
                     product_line=product_line, source=source, complete_timeout=complete_timeout, serial=serial,
-                    name=name, address=address, host=host)
+                    name=name, address=address, host=host, in_use=in_use)
         return _generate(w)
 
     def wait_for(self, predicate: Optional[Callable[[Device], bool]] = None, timeout: float = 10.0,
                  count: int = 1, domain: Domains = None, product_line: Optional[str] = None,
                  source: Optional[str] = None, *, serial: Optional[str] = None, name: Optional[str] = None,
-                 address: Optional[str] = None, host: Optional[str] = None) -> Device:
+                 address: Optional[str] = None, host: Optional[str] = None,
+                 in_use: Optional[bool] = None) -> Device:
         """Waits until ``count`` devices matching the filters and ``predicate`` are present;
         returns the first of them. Raises :class:`TimeoutError` (the built-in) when
         ``timeout`` seconds pass first. Like :meth:`list_devices` it looks at the complete
@@ -403,7 +406,7 @@ class Client:
         if isinstance(count, bool) or not isinstance(count, int) or count < 1:
             raise ValueError(f"count must be a whole number >= 1, not {count!r}")
         domain = _domains(domain) or None  # once: an iterator is empty the second time
-        filters = (domain, product_line, source, serial, name, address, host)
+        filters = (domain, product_line, source, serial, name, address, host, in_use)
         _check_filters(*filters)
 
         def hit(devices: List[Device]) -> List[Device]:
@@ -416,7 +419,7 @@ class Client:
             return now[0]
         with Watcher(self, domain=domain, product_line=product_line, source=source,
                      complete_timeout=max(complete_by - time.monotonic(), 0), serial=serial, name=name,
-                     address=address, host=host) as w:
+                     address=address, host=host, in_use=in_use) as w:
             while True:
                 now = hit(w.devices())
                 if len(now) >= count:
@@ -474,18 +477,20 @@ def wait_for(predicate: Optional[Callable[[Device], bool]] = None, timeout: floa
              domain: Domains = None, product_line: Optional[str] = None, source: Optional[str] = None,
              endpoint: "Endpoint | str | None" = None, complete_timeout: float = 5.0, *,
              serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None,
-             host: Optional[str] = None) -> Device:
+             host: Optional[str] = None, in_use: Optional[bool] = None) -> Device:
     """Waits for a device; raises :class:`TimeoutError` (see :meth:`Client.wait_for`)."""
     return Client(endpoint, complete_timeout=complete_timeout).wait_for(predicate, timeout, count, domain,
                                                                         product_line, source, serial=serial,
-                                                                        name=name, address=address, host=host)
+                                                                        name=name, address=address, host=host,
+                                                                        in_use=in_use)
 
 
 def watch(initial: bool = False, last_event_id: Optional[int] = None, reconnect: bool = True,
           domain: Domains = None, product_line: Optional[str] = None, source: Optional[str] = None,
           endpoint: "Endpoint | str | None" = None, complete_timeout: float = 10.0, *,
           serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None,
-          host: Optional[str] = None) -> Iterator[Event]:
+          host: Optional[str] = None, in_use: Optional[bool] = None) -> Iterator[Event]:
     """A resumable generator of events (see :meth:`Client.watch`)."""
     return Client(endpoint).watch(initial, last_event_id, reconnect, domain, product_line, source,
-                                  complete_timeout, serial=serial, name=name, address=address, host=host)
+                                  complete_timeout, serial=serial, name=name, address=address, host=host,
+                                  in_use=in_use)

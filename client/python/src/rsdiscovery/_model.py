@@ -176,13 +176,28 @@ class Host(_Document):
 
 
 @dataclass(frozen=True)
+class InUse:
+    """A network camera's clients in short (the device's ``in-use``): how many DDS
+    participants use it, and the streams read now (:meth:`Client.clients` says who)."""
+
+    clients: int
+    streaming: Tuple[str, ...]
+
+    @staticmethod
+    def from_json(doc: Any) -> "InUse":
+        r = _Read(doc, "a device's in-use")
+        return InUse(clients=r.req("clients", int), streaming=r.strings("streaming"))
+
+
+@dataclass(frozen=True)
 class Device(_Document):
     """A camera as rs-discoveryd knows it (``GET /v1/devices``, ``/v1/devices/{id}``, events).
 
     Attributes are the JSON fields in snake_case (``topic-root`` -> ``topic_root``); those
     the daemon does not send for this camera are None (``domain``, ``topic_root`` and
     ``server`` for a USB camera; ``usb`` for a network one; ``host`` for every camera but
-    another host's USB one, ``source`` ``remote-usb``), or empty (``warnings``).
+    another host's USB one, ``source`` ``remote-usb``; ``in_use`` for a camera with no
+    client), or empty (``warnings``).
     ``sources`` holds every source that sees the camera (``("dds", "usb")`` for one seen both
     ways); ``first_seen`` and ``last_seen`` are RFC 3339 UTC strings, as sent. ``raw`` is the
     document exactly as the daemon sent it: the camera's whole realdds device-info is in it,
@@ -209,6 +224,7 @@ class Device(_Document):
     raw: Mapping[str, Any] = field(repr=False)
     # Last and defaulted: a Device made by keyword or position as before it stays valid.
     host: Optional[Host] = None
+    in_use: Optional[InUse] = None
 
     @staticmethod
     def from_json(doc: Any) -> "Device":
@@ -221,6 +237,7 @@ class Device(_Document):
         server = doc.get("server")
         usb = doc.get("usb")
         host = doc.get("host")
+        in_use = doc.get("in-use")
         return Device(id=r.req("id", str), name=r.get("name", str, ""), source=source,
                       sources=r.strings("sources") or ((source,) if source else ()), serial=r.opt("serial", str),
                       product_line=r.opt("product-line", str), product_id=r.opt("product-id", str),
@@ -230,7 +247,8 @@ class Device(_Document):
                       usb=Usb.from_json(usb) if usb is not None else None, warnings=r.strings("warnings"),
                       first_seen=r.get("first-seen", str, ""), last_seen=r.get("last-seen", str, ""),
                       merged_into=r.opt("merged-into", str), raw=r.doc,
-                      host=Host.from_json(host) if host is not None else None)
+                      host=Host.from_json(host) if host is not None else None,
+                      in_use=InUse.from_json(in_use) if in_use is not None else None)
 
     def __hash__(self) -> int:
         return hash((self.id, self.last_seen))

@@ -28,7 +28,7 @@ def _domains(domain: Domains) -> Tuple[int, ...]:
 
 def _check_filters(domain: Domains, product_line: Optional[str], source: Optional[str],
                    serial: Optional[str] = None, name: Optional[str] = None, address: Optional[str] = None,
-                   host: Optional[str] = None) -> None:
+                   host: Optional[str] = None, in_use: Optional[bool] = None) -> None:
     """Bad filter arguments are the caller's mistake: a ValueError at once, never a
     request the daemon would answer with 400 (or, worse, one that filters nothing)."""
     _domains(domain)
@@ -43,6 +43,8 @@ def _check_filters(domain: Domains, product_line: Optional[str], source: Optiona
     # answer an empty list, which reads as "no such camera" rather than as the mistake.
     if host is not None and source is not None and source.lower() != "remote-usb":
         raise ValueError(f"host selects another host's cameras (source 'remote-usb'), not source {source!r}")
+    if in_use is not None and not isinstance(in_use, bool):
+        raise ValueError(f"in_use must be True, False or None, not {in_use!r}")
 
 
 def _check_seconds(name: str, value: Any, allow_zero: bool = True) -> None:
@@ -55,15 +57,13 @@ def _query(domain: Domains, product_line: Optional[str], source: Optional[str],
            host: Optional[str] = None, in_use: Optional[bool] = None) -> str:
     """The filters as the daemon takes them (it filters; the package never filters again)."""
     domains = _domains(domain)  # once: an iterator is empty the second time
-    _check_filters(domains or None, product_line, source, serial, name, address, host)
+    _check_filters(domains or None, product_line, source, serial, name, address, host, in_use)
     q: List[Tuple[str, str]] = [("domain", str(d)) for d in domains]
     for key, value in (("product-line", product_line), ("source", source), ("serial", serial), ("name", name),
                        ("address", address), ("host", host)):
         if value:
             q.append((key, value))
     if in_use is not None:
-        if not isinstance(in_use, bool):
-            raise ValueError(f"in_use must be True, False or None, not {in_use!r}")
         q.append(("in-use", "true" if in_use else "false"))
     return ("?" + urllib.parse.urlencode(q)) if q else ""
 

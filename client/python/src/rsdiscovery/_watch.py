@@ -121,10 +121,11 @@ class Watcher:
                  reconnect: bool = True, idle_timeout: float = 60.0, max_reconnect_delay: float = 2.0,
                  domain: Domains = None, product_line: Optional[str] = None,
                  source: Optional[str] = None, complete_timeout: float = 10.0, *, serial: Optional[str] = None,
-                 name: Optional[str] = None, address: Optional[str] = None, host: Optional[str] = None) -> None:
+                 name: Optional[str] = None, address: Optional[str] = None, host: Optional[str] = None,
+                 in_use: Optional[bool] = None) -> None:
         # The domains once: an iterator given as domain= would be empty at the second request.
         domain = _domains(domain) or None
-        _check_filters(domain, product_line, source, serial, name, address, host)
+        _check_filters(domain, product_line, source, serial, name, address, host, in_use)
         _check_seconds("complete_timeout", complete_timeout)
         _check_seconds("idle_timeout", idle_timeout, allow_zero=False)
         if last_event_id is not None and (isinstance(last_event_id, bool) or not isinstance(last_event_id, int)
@@ -134,7 +135,7 @@ class Watcher:
         self._complete_timeout = complete_timeout
         # The generation of the last list: stream events up to it are in the view already.
         self._listed_at = 0
-        self._filters = (domain, product_line, source, serial, name, address, host)
+        self._filters = (domain, product_line, source, serial, name, address, host, in_use)
         self._initial = initial
         self._reconnect = reconnect
         self._idle = idle_timeout
