@@ -538,22 +538,20 @@ http {{
 
     # -- share ------------------------------------------------------------------------------
     def bench_share(self):
-        rounds = {"full": 30, "quick": 10, "smoke": 2}[self.mode]
-        r = subprocess.run([sys.executable, os.path.join(HERE, "share_latency.py"), "--build", self.build,
-                            "--rounds", str(rounds)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                           timeout=60 + 5 * rounds)
-        if r.returncode != 0:
-            raise BenchError(f"share_latency.py exited {r.returncode}: {r.stderr[-1500:]}")
-        return json.loads(r.stdout.strip().splitlines()[-1])
+        return self._latency_script("share_latency.py")
 
     # -- clients ----------------------------------------------------------------------------
     def bench_clients(self):
+        return self._latency_script("client_latency.py")
+
+    def _latency_script(self, script):
+        """Runs a bench/ script that takes --build and --rounds and prints its JSON last."""
         rounds = {"full": 30, "quick": 10, "smoke": 2}[self.mode]
-        r = subprocess.run([sys.executable, os.path.join(HERE, "client_latency.py"), "--build", self.build,
+        r = subprocess.run([sys.executable, os.path.join(HERE, script), "--build", self.build,
                             "--rounds", str(rounds)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            timeout=60 + 5 * rounds)
         if r.returncode != 0:
-            raise BenchError(f"client_latency.py exited {r.returncode}: {r.stderr[-1500:]}")
+            raise BenchError(f"{script} exited {r.returncode}: {r.stderr[-1500:]}")
         return json.loads(r.stdout.strip().splitlines()[-1])
 
     # -- fan-out ----------------------------------------------------------------------------
