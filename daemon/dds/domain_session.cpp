@@ -303,7 +303,12 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   Clock::duration wait = std::min(kIdle, share_.tick(now));
   if (reader_ <= 0) {
     const bool heard = servers_heard();
-    if (now - joined_at_ < options_.settle && !heard) return std::min(wait, options_.settle - (now - joined_at_));
+    Clock::duration settle = options_.settle;
+    {
+      std::lock_guard lock(mutex_);
+      if (book_.lost_servers() > 0) settle = std::max<Clock::duration>(settle, options_.settle_for_lost);
+    }
+    if (now - joined_at_ < settle && !heard) return std::min(wait, settle - (now - joined_at_));
     log::info(log::domain_prefix(options_.domain) + "reading device-info " +
               std::to_string(duration_cast<milliseconds>(now - joined_at_).count()) + " ms after joining" +
               (heard ? " (every server it waits for is heard)" : ""));
