@@ -240,6 +240,14 @@ void DomainSession::create_reader() {
   dds_listener_t* listener = dds_create_listener(this);
   dds_lset_data_available(listener, &DomainSession::on_data_available);
   dds_lset_subscription_matched(listener, &DomainSession::on_subscription_matched);
+  // The book learns of the new reader first: Cyclone matches the writers it knows
+  // already inside dds_create_reader, through the listener, and a book told after
+  // would forget them (their broadcast lost, no one would ask again).
+  const auto now = Clock::now();
+  {
+    std::lock_guard lock(mutex_);
+    book_.reader_made(now);
+  }
   const dds_entity_t reader = dds_create_reader(participant_, topic_, qos, listener);
   dds_delete_listener(listener);
   dds_delete_qos(qos);
@@ -253,9 +261,7 @@ void DomainSession::create_reader() {
   reader_ = reader;
   std::lock_guard lock(mutex_);
   state_ = DomainState::running;
-  const auto now = Clock::now();
   if (!first_reader_at_) first_reader_at_ = now;
-  book_.reader_made(now);
 }
 
 void DomainSession::delete_reader() {
