@@ -71,8 +71,11 @@ struct BookOptions {
   // again sooner, with one silent writer as with several: its broadcast, when it
   // comes, comes within milliseconds of the match, and its camera is listed again
   // only once it does.
-  std::chrono::milliseconds awaited_silent_grace{1000};
+  // On a lossy link each new reader's broadcast is a new draw, so one awaited is
+  // asked more often and more times.
+  std::chrono::milliseconds awaited_silent_grace{600};
   int silent_retries = 3;  // per server participant, so a quiet peer can't loop us (anew after each loss)
+  int awaited_silent_retries = 8;
   // Caps: a realdds server announces a handful of devices, and one rogue writer
   // could announce thousands (150,000 distinct ones in 2 s, measured). Devices
   // beyond a cap are refused (counted as rejected, logged with a rate limit).

@@ -38,9 +38,15 @@ namespace {
 // (measured: 0.10.2, the participant made anew after the address was removed
 // never came; the main thread sat in dds_delete joining "recvMC"). The single
 // thread waits on a waitset that a pipe wakes. Discovery traffic is light.
+//
+// The participant announces itself every second (Cyclone's default: every 8 s with
+// its 10 s lease). A peer sends its endpoints only once it has heard the
+// participant, so after a refresh on a lossy link, with the first announcements
+// lost, finding a server's device-info writer again waited for the next one.
 constexpr const char* kCycloneDefaults =
     "<Sizing><ReceiveBufferSize>256KiB</ReceiveBufferSize></Sizing>"
-    "<Internal><MultipleReceiveThreads>false</MultipleReceiveThreads></Internal>";
+    "<Internal><MultipleReceiveThreads>false</MultipleReceiveThreads></Internal>"
+    "<Discovery><SPDPInterval>1 s</SPDPInterval></Discovery>";
 
 std::string dds_error(const char* what, dds_return_t rc) {
   return std::string(what) + ": " + dds_strretcode(rc);

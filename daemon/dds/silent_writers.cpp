@@ -37,9 +37,10 @@ bool DomainBook::ask_silent_servers_again(Clock::time_point now) {
   std::map<std::string, std::vector<std::string>> silent;  // participant GUID -> such writers
   for (const auto& [h, w] : writers_) {
     if (w.sent || now - w.matched_at < silent_grace_of(w, awaited) || idle_writers_.count(w.identity.guid)) continue;
-    // Silent for the new reader too: it never writes, unless it announced a device
-    // (its broadcast was lost twice, as on a lossy link).
-    if (retried_writers_.erase(w.identity.guid) && !devices_of_writer_.count(w.identity.guid)) {
+    // Silent for the new reader too: it never writes, unless it announced a device or
+    // its server is awaited (its broadcast was lost twice, as on a lossy link).
+    const bool waited_for = awaited.count(w.identity.participant_guid) > 0;
+    if (retried_writers_.erase(w.identity.guid) && !waited_for && !devices_of_writer_.count(w.identity.guid)) {
       // Named first: clang before 16 cannot capture a structured binding.
       const std::string& guid = w.identity.guid;
       log::debug([&] { return prefix() + "writer " + guid + " stayed silent for a new reader: idle"; });
@@ -54,7 +55,7 @@ bool DomainBook::ask_silent_servers_again(Clock::time_point now) {
     const bool announces = per_participant_.count(p) > 0 && !awaited.count(p);
     if (guids.size() < 2 && announces) continue;
     int& retries = silent_retries_[p];
-    if (retries >= options_.silent_retries) continue;
+    if (retries >= (awaited.count(p) ? options_.awaited_silent_retries : options_.silent_retries)) continue;
     ++retries;
     retried_writers_.insert(guids.begin(), guids.end());
     log::info(prefix() + "server " + p + " has " + std::to_string(guids.size()) +
