@@ -168,6 +168,8 @@ class DomainBook {
   // a server with many devices is probed once per device's removal otherwise).
   std::vector<LeaseLoss> take_lease_losses() { return std::exchange(lease_losses_, {}); }
   static constexpr std::size_t kMaxLeaseLosses = 256;
+  // How many times a removal grace is extended for a server heard again (Grace).
+  static constexpr int kMaxGraceExtensions = 3;
 
   // Removes this domain's devices from the table (leaving the domain for good).
   void forget_devices(model::RemovalReason reason);
@@ -265,14 +267,15 @@ class DomainBook {
   LostServers lost_;
   std::vector<LeaseLoss> lease_losses_;
   // Devices in their removal grace: device id -> when they are removed. A grace
-  // is extended once (heard_again_grace) when the device's server was heard again
+  // is extended (heard_again_grace) when the device's server was heard again
   // within it but its device not yet: the refresh and new reader that bring it back
   // take seconds on a lossy link, and a camera heard again within the grace is not
-  // removed.
+  // removed. Each extension needs the server heard again since the last, and there
+  // are kMaxGraceExtensions at most.
   struct Grace {
     Clock::time_point until;
-    bool heard = false;  // its server's participant, since the grace began
-    bool extended = false;
+    bool heard = false;  // its server's participant, since the grace or its last extension began
+    int extensions = 0;
   };
   std::map<std::string, Grace> unresponsive_;
   void mark_unresponsive(const std::string& id, Clock::time_point now);

@@ -1,7 +1,8 @@
 // DomainBook's removal grace (BookOptions::removal_grace): a device whose server's
 // lease ran out stays listed, marked unresponsive, until its grace ends, and goes
 // with `lease-expired` then unless it was announced again meanwhile, or its server
-// was heard again (then heard_again_grace longer, for its device to follow).
+// was heard again (then heard_again_grace longer, for its device to follow, as
+// long as the server is heard again each time, a few times at most).
 #include "dds/domain_book.hpp"
 
 #include "log/log.hpp"
@@ -43,9 +44,10 @@ void DomainBook::end_graces(Clock::time_point now) {
       it = unresponsive_.erase(it);
       continue;
     }
-    if (it->second.heard && !it->second.extended) {
+    if (it->second.heard && it->second.extensions < kMaxGraceExtensions) {
       it->second.until = now + options_.heard_again_grace;
-      it->second.extended = true;
+      it->second.heard = false;
+      ++it->second.extensions;
       log::info(prefix() + "device " + id + ": its server was heard again, its device-info not yet: kept " +
                 std::to_string(std::chrono::duration_cast<std::chrono::seconds>(options_.heard_again_grace).count()) +
                 " s more");

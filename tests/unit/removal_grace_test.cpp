@@ -116,3 +116,24 @@ TEST(RemovalGrace, HeardAgainButNeverItsDeviceIsRemovedAfterTheSecondGrace) {
   EXPECT_FALSE(table.find(id("100")));
   EXPECT_EQ(table.find_gone(id("100"))->reason, rsd::model::RemovalReason::lease_expired);
 }
+
+TEST(RemovalGrace, HeardAgainInEachExtensionIsKeptAFewTimesAtMost) {
+  // A link that keeps losing the server: each time it is heard again the grace goes
+  // on, a few times; a server heard for ever without its device cannot keep it.
+  rsd::SharedTable table;
+  const auto options = with_grace(5s);
+  DomainBook book(table, options);
+  announce_then_lose_by_lease(book);
+  auto end = t0 + 6s;
+  for (int i = 0; i < DomainBook::kMaxGraceExtensions; ++i) {
+    book.participant_alive(writer(1, 1).participant_guid, end - 1s);
+    book.participant_gone(writer(1, 1).participant_guid, end - 500ms);  // lost again
+    book.tick(end, {});
+    ASSERT_TRUE(table.find(id("100"))) << i;
+    end += options.heard_again_grace;
+  }
+  book.participant_alive(writer(1, 1).participant_guid, end - 1s);
+  book.tick(end, {});
+  EXPECT_FALSE(table.find(id("100")));
+  EXPECT_EQ(table.find_gone(id("100"))->reason, rsd::model::RemovalReason::lease_expired);
+}
