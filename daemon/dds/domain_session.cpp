@@ -38,11 +38,8 @@ namespace {
 // (measured: 0.10.2, the participant made anew after the address was removed
 // never came; the main thread sat in dds_delete joining "recvMC"). The single
 // thread waits on a waitset that a pipe wakes. Discovery traffic is light.
-//
-// The participant announces itself every second (Cyclone's default: every 8 s with
-// its 10 s lease). A peer sends its endpoints only once it has heard the
-// participant, so after a refresh on a lossy link, with the first announcements
-// lost, finding a server's device-info writer again waited for the next one.
+// The participant announces itself every second (Cyclone: every 8 s): a peer sends its
+// endpoints once it has heard it, and a refresh on a lossy link waited for the next.
 constexpr const char* kCycloneDefaults =
     "<Sizing><ReceiveBufferSize>256KiB</ReceiveBufferSize></Sizing>"
     "<Internal><MultipleReceiveThreads>false</MultipleReceiveThreads></Internal>"
@@ -246,14 +243,11 @@ void DomainSession::create_reader() {
   dds_listener_t* listener = dds_create_listener(this);
   dds_lset_data_available(listener, &DomainSession::on_data_available);
   dds_lset_subscription_matched(listener, &DomainSession::on_subscription_matched);
-  // The book learns of the new reader first: Cyclone matches the writers it knows
-  // already inside dds_create_reader, through the listener, and a book told after
-  // would forget them (their broadcast lost, no one would ask again).
+  // The book first: Cyclone matches known writers inside dds_create_reader (listener).
   const auto now = Clock::now();
-  {
-    std::lock_guard lock(mutex_);
-    book_.reader_made(now);
-  }
+  std::unique_lock book_lock(mutex_);
+  book_.reader_made(now);
+  book_lock.unlock();  // the listener takes it
   const dds_entity_t reader = dds_create_reader(participant_, topic_, qos, listener);
   dds_delete_listener(listener);
   dds_delete_qos(qos);
@@ -315,11 +309,9 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   Clock::duration wait = std::min(kIdle, share_.tick(now));
   if (reader_ <= 0) {
     const bool heard = servers_heard();
-    Clock::duration settle = options_.settle;
-    {
-      std::lock_guard lock(mutex_);
-      if (book_.lost_servers() > 0) settle = std::max<Clock::duration>(settle, options_.settle_for_lost);
-    }
+    std::unique_lock lock(mutex_);
+    const auto settle = book_.lost_servers() ? std::max(options_.settle, options_.settle_for_lost) : options_.settle;
+    lock.unlock();
     if (now - joined_at_ < settle && !heard) return std::min(wait, settle - (now - joined_at_));
     log::info(log::domain_prefix(options_.domain) + "reading device-info " +
               std::to_string(duration_cast<milliseconds>(now - joined_at_).count()) + " ms after joining" +
@@ -384,7 +376,6 @@ void DomainSession::on_data_available(dds_entity_t reader, void* arg) {
     log::error(std::string("device-info listener: ") + e.what());
   }
 }
-
 
 void DomainSession::on_subscription_matched(dds_entity_t reader,
                                             dds_subscription_matched_status_t status, void* arg) {
