@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
 
 namespace rsdiscover::doctor {
 namespace {
@@ -85,9 +86,24 @@ void check_usb_holders(Report& r, const rsdiscovery::Device& d) {
 // Whether the camera sent its whole notification set when the daemon asked (the
 // device's "ready"): a camera listed but not ready is one librealsense finds and
 // then gives up on, which users report as "found but never ready".
-void check_ready(Report& r, const rsdiscovery::Device& d) {
+void check_ready(Report& r, rsdiscovery::Client& client, rsdiscovery::Device& d) {
+  if (d.field("ready").empty() && d.field("recovery") != "true") {
+    // Not asked yet (describe-eagerly is off and no one described it): asked now, as
+    // librealsense would open it. The daemon says `ready` once the set came whole, or
+    // librealsense's 5 s wait is over; a set that never completes keeps the
+    // description waiting longer, so the wait here is that one and a margin.
+    try {
+      client.describe(d.id, std::chrono::milliseconds(7000));
+    } catch (const rsdiscovery::Error&) {
+    }
+    try {
+      d = client.get_device(d.id);
+    } catch (const rsdiscovery::Error&) {
+      return;  // gone meanwhile: the history lines say why
+    }
+  }
   const std::string ready = d.field("ready");
-  if (ready.empty()) return;  // not asked yet: describe-eagerly is off and no one described it
+  if (ready.empty()) return;  // still not known (an older daemon)
   if (ready == "true") {
     r.add(Verdict::ok, "ready", camera_name(d) + " sent its whole description when asked: it is ready");
     return;
@@ -114,7 +130,7 @@ void check_camera(Report& r, rsdiscovery::Client& client, const std::string& id)
   }
   r.add(Verdict::ok, "camera", camera_name(d) + " is listed as " + d.id + " (" + d.state + ")");
   if (d.domain) {
-    check_ready(r, d);
+    check_ready(r, client, d);
     check_dds_clients(r, client, d);
   }
   const bool usb = d.source == "usb" || std::find(d.sources.begin(), d.sources.end(), "usb") != d.sources.end();

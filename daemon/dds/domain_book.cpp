@@ -195,6 +195,7 @@ bool DomainBook::drop_announcer(const std::string& id, const std::string& writer
 
 void DomainBook::participant_gone(const std::string& guid, Clock::time_point now) {
   lost_.participant_gone(guid, now);
+  silent_retries_.erase(guid);  // heard again, it is asked again as often as a new one
   std::vector<std::pair<std::string, std::string>> gone;  // device id, writer GUID
   for (const auto& [id, device] : devices_)
     for (const auto& [writer, server] : device.announcers)
@@ -360,32 +361,7 @@ DomainBook::Due DomainBook::tick(Clock::time_point now, const MatchedWriters& st
     sweep(still_matched, nullptr, now, reconcile_reason_.value_or(model::RemovalReason::writer_gone));
     reconcile_reason_.reset();
   }
-  // Per server, the writers that matched a while ago and sent nothing, but for
-  // those already known to be idle.
-  std::map<std::string, std::vector<std::string>> silent;  // participant GUID -> such writers
-  for (const auto& [h, w] : writers_) {
-    if (w.sent || now - w.matched_at < options_.silent_grace || idle_writers_.count(w.identity.guid)) continue;
-    if (retried_writers_.erase(w.identity.guid)) {  // silent for the new reader too: it never writes
-      // Named first: clang before 16 cannot capture a structured binding.
-      const std::string& guid = w.identity.guid;
-      log::debug([&] { return prefix() + "writer " + guid + " stayed silent for a new reader: idle"; });
-      idle_writers_.insert(w.identity.guid);
-      continue;
-    }
-    silent[w.identity.participant_guid].push_back(w.identity.guid);
-  }
-  for (const auto& [p, guids] : silent) {
-    const bool announces = per_participant_.count(p) > 0;
-    if (guids.size() < 2 && announces) continue;  // most likely its idle writer
-    int& retries = silent_retries_[p];
-    if (retries >= options_.silent_retries) continue;
-    ++retries;
-    retried_writers_.insert(guids.begin(), guids.end());
-    log::info(prefix() + "server " + p + " has " + std::to_string(guids.size()) +
-              " writer(s) that matched but sent no device-info; making the reader anew so it "
-              "broadcasts again (try " + std::to_string(retries) + ")");
-    due.make_reader_anew = true;
-  }
+  due.make_reader_anew = ask_silent_servers_again(now);
   return due;
 }
 
@@ -396,10 +372,14 @@ std::optional<DomainBook::Clock::time_point> DomainBook::next_deadline(Clock::ti
     if (t > now && (!next || t < *next)) next = t;
   };
   if (reconcile_at_) consider(*reconcile_at_);
-  for (const auto& [id, until] : unresponsive_) consider(until);  // removal graces ending
+  for (const auto& [id, grace] : unresponsive_) consider(grace.until);  // removal graces ending
   for (const auto& [id, held] : in_use_held_) consider(held.until);
-  for (const auto& [h, w] : writers_)
-    if (!w.sent && !idle_writers_.count(w.identity.guid)) consider(w.matched_at + options_.silent_grace);
+  std::optional<std::set<std::string>> awaited;  // worked out only when a writer is silent
+  for (const auto& [h, w] : writers_) {
+    if (w.sent || idle_writers_.count(w.identity.guid)) continue;
+    if (!awaited) awaited = awaited_servers();
+    consider(w.matched_at + silent_grace_of(w, *awaited));
+  }
   return next;
 }
 

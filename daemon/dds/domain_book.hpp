@@ -67,7 +67,16 @@ struct BookOptions {
   // A server with devices and one silent writer is left alone: making the reader
   // anew for every such server slowed the noticing of a SIGKILL (bench, measured).
   std::chrono::milliseconds silent_grace{2500};
-  int silent_retries = 3;  // per server participant, so a quiet peer can't loop us
+  // A server the daemon waits for (one it lost, or whose kept devices have not been
+  // announced to the current reader: after a refresh, on a lossy link) is asked
+  // again sooner, with one silent writer as with several: its broadcast, when it
+  // comes, comes within milliseconds of the match, and its camera is listed again
+  // only once it does.
+  // On a lossy link each new reader's broadcast is a new draw, so one awaited is
+  // asked more often and more times.
+  std::chrono::milliseconds awaited_silent_grace{600};
+  int silent_retries = 3;  // per server participant, so a quiet peer can't loop us (anew after each loss)
+  int awaited_silent_retries = 8;
   // Caps: a realdds server announces a handful of devices, and one rogue writer
   // could announce distinct ones faster than any table should keep them. Devices
   // beyond a cap are refused (counted as rejected, logged with a rate limit).
@@ -96,6 +105,10 @@ struct BookOptions {
   // stream is held this long, so the camera changes once when the client goes. A
   // client coming, or a stream opened, is written at once.
   std::chrono::milliseconds in_use_hold{50};
+  // A device whose server was heard again within its removal grace, but not its
+  // device-info yet, is kept this much longer: on a lossy link the fresh participant
+  // that finds the server's writers again can take seconds to hear them.
+  std::chrono::milliseconds heard_again_grace{10000};
   LostServerTimes lost;
 };
 
@@ -136,7 +149,7 @@ class DomainBook {
   // The participant is made anew because the host's network changed: a device that
   // does not come back by the reconciliation left with the network (interface-gone).
   void network_changed() { reconcile_reason_ = model::RemovalReason::interface_gone; }
-  void participant_alive(const std::string& guid, Clock::time_point now) { lost_.participant_alive(guid, now); }
+  void participant_alive(const std::string& guid, Clock::time_point now);
   // A participant left or its lease expired: every writer of it is gone, so are the
   // devices it alone announced, now, whether or not its writers ever matched the
   // current reader (one made anew just before cannot see them leave).
@@ -161,6 +174,8 @@ class DomainBook {
   // a server with many devices is probed once per device's removal otherwise).
   std::vector<LeaseLoss> take_lease_losses() { return std::exchange(lease_losses_, {}); }
   static constexpr std::size_t kMaxLeaseLosses = 256;
+  // How many times a removal grace is extended for a server heard again (Grace).
+  static constexpr int kMaxGraceExtensions = 3;
 
   // Removes this domain's devices from the table (leaving the domain for good).
   void forget_devices(model::RemovalReason reason);
@@ -198,6 +213,7 @@ class DomainBook {
   // The topic-roots of every device: all the session's tick needs each time (copying
   // every announcement instead was most of the daemon's idle CPU).
   std::set<std::string> topic_roots() const;
+  std::size_t lost_servers() const { return lost_.size(); }
   // devices, accepted, stopping, rejected, lost_servers.
   void fill(DomainStatus& status) const;
   // Per participant GUID: its writers on the topic, the devices they announce,
@@ -264,8 +280,18 @@ class DomainBook {
   std::optional<model::RemovalReason> reconcile_reason_;  // why the next reconciliation removes
   LostServers lost_;
   std::vector<LeaseLoss> lease_losses_;
-  // Devices in their removal grace: device id -> when they are removed.
-  std::map<std::string, Clock::time_point> unresponsive_;
+  // Devices in their removal grace: device id -> when they are removed. A grace
+  // is extended (heard_again_grace) when the device's server was heard again
+  // within it but its device not yet: the refresh and new reader that bring it back
+  // take seconds on a lossy link, and a camera heard again within the grace is not
+  // removed. Each extension needs the server heard again since the last, and there
+  // are kMaxGraceExtensions at most.
+  struct Grace {
+    Clock::time_point until;
+    bool heard = false;  // its server's participant, since the grace or its last extension began
+    int extensions = 0;
+  };
+  std::map<std::string, Grace> unresponsive_;
   // In-use summaries held (set_in_use), by device id: the latest, and when it is written.
   struct HeldInUse {
     std::optional<model::InUse> in_use;
@@ -275,6 +301,11 @@ class DomainBook {
   void write_in_use(const std::string& id, std::optional<model::InUse> in_use);
   void mark_unresponsive(const std::string& id, Clock::time_point now);
   void end_graces(Clock::time_point now);
+  // Silent writers (silent_writers.cpp): the servers waited for, each writer's
+  // grace, and whether the reader is to be made anew now.
+  std::set<std::string> awaited_servers() const;
+  std::chrono::milliseconds silent_grace_of(const Writer& w, const std::set<std::string>& awaited) const;
+  bool ask_silent_servers_again(Clock::time_point now);
   std::uint64_t accepted_ = 0, stopping_ = 0;
   std::map<std::string, std::uint64_t> rejected_;
 };

@@ -38,9 +38,12 @@ namespace {
 // (measured: 0.10.2, the participant made anew after the address was removed
 // never came; the main thread sat in dds_delete joining "recvMC"). The single
 // thread waits on a waitset that a pipe wakes. Discovery traffic is light.
+// The participant announces itself every second (Cyclone: every 8 s): a peer sends its
+// endpoints once it has heard it, and a refresh on a lossy link waited for the next.
 constexpr const char* kCycloneDefaults =
     "<Sizing><ReceiveBufferSize>256KiB</ReceiveBufferSize></Sizing>"
-    "<Internal><MultipleReceiveThreads>false</MultipleReceiveThreads></Internal>";
+    "<Internal><MultipleReceiveThreads>false</MultipleReceiveThreads></Internal>"
+    "<Discovery><SPDPInterval>1 s</SPDPInterval></Discovery>";
 
 std::string dds_error(const char* what, dds_return_t rc) {
   return std::string(what) + ": " + dds_strretcode(rc);
@@ -240,6 +243,11 @@ void DomainSession::create_reader() {
   dds_listener_t* listener = dds_create_listener(this);
   dds_lset_data_available(listener, &DomainSession::on_data_available);
   dds_lset_subscription_matched(listener, &DomainSession::on_subscription_matched);
+  // The book first: Cyclone matches known writers inside dds_create_reader (listener).
+  const auto now = Clock::now();
+  std::unique_lock book_lock(mutex_);
+  book_.reader_made(now);
+  book_lock.unlock();  // the listener takes it
   const dds_entity_t reader = dds_create_reader(participant_, topic_, qos, listener);
   dds_delete_listener(listener);
   dds_delete_qos(qos);
@@ -253,9 +261,7 @@ void DomainSession::create_reader() {
   reader_ = reader;
   std::lock_guard lock(mutex_);
   state_ = DomainState::running;
-  const auto now = Clock::now();
   if (!first_reader_at_) first_reader_at_ = now;
-  book_.reader_made(now);
 }
 
 void DomainSession::delete_reader() {
@@ -306,7 +312,10 @@ DomainSession::Clock::duration DomainSession::tick(Clock::time_point now) {
   if (held) wait = std::min(wait, *held - now);
   if (reader_ <= 0) {
     const bool heard = servers_heard();
-    if (now - joined_at_ < options_.settle && !heard) return std::min(wait, options_.settle - (now - joined_at_));
+    std::unique_lock lock(mutex_);
+    const auto settle = book_.lost_servers() ? std::max(options_.settle, options_.settle_for_lost) : options_.settle;
+    lock.unlock();
+    if (now - joined_at_ < settle && !heard) return std::min(wait, settle - (now - joined_at_));
     log::info(log::domain_prefix(options_.domain) + "reading device-info " +
               std::to_string(duration_cast<milliseconds>(now - joined_at_).count()) + " ms after joining" +
               (heard ? " (every server it waits for is heard)" : ""));
@@ -370,7 +379,6 @@ void DomainSession::on_data_available(dds_entity_t reader, void* arg) {
     log::error(std::string("device-info listener: ") + e.what());
   }
 }
-
 
 void DomainSession::on_subscription_matched(dds_entity_t reader,
                                             dds_subscription_matched_status_t status, void* arg) {

@@ -39,6 +39,10 @@ struct SessionOptions {
   // knows a server's writer loses that server's broadcast for good, so the
   // reader waits this long after the participant is made.
   std::chrono::milliseconds settle{1700};
+  // After a refresh for lost servers, the reader waits for their device-info
+  // writers up to this long: on a lossy link their endpoints may take seconds to
+  // be heard, and a reader made before them misses their broadcast.
+  std::chrono::milliseconds settle_for_lost{4000};
   // The domain's bookkeeping: silent writers, caps, reconciliation, lost
   // servers (see DomainBook); its `domain` is set from the one above.
   BookOptions book;

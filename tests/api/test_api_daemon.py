@@ -250,3 +250,24 @@ def test_stale_socket_replaced_live_daemon_refused(daemon, free_domain, tmp_path
     assert "already running" in second.stderr, second.stderr
     # The first daemon keeps its socket and keeps serving.
     assert get_json(path, "/healthz")["status"] == "ok"
+
+
+def test_removal_reasons_are_spelled_once(daemon, free_domain):
+    """RemovalReason and HostVerdict as the spec has them are the labels the daemon's
+    model gives /metrics from the start, and the Python client's REMOVAL_REASONS."""
+    import sys
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                                    "client", "python", "src"))
+    from rsdiscovery._history import REMOVAL_REASONS
+
+    schemas = spec()["components"]["schemas"]
+    reasons, verdicts = schemas["RemovalReason"]["enum"], schemas["HostVerdict"]["enum"]
+    d = daemon([free_domain])
+    samples = parse_metrics(request(d.socket, "/metrics")[2].decode())
+    labels = {}
+    for (name, pairs), _ in samples.items():
+        for label, value in pairs:
+            labels.setdefault((name, label), set()).add(value)
+    assert labels[("rsd_device_removals_total", "reason")] == set(reasons)
+    assert labels[("rsd_lease_expired_hosts_total", "verdict")] == set(verdicts)
+    assert tuple(reasons) == REMOVAL_REASONS  # in the spec's order

@@ -38,3 +38,28 @@ def test_history_and_get_tell_gone_from_never_seen(daemon, realdds_server, free_
     r = rs_discover("doctor", "--listen", "0", endpoint=ep)
     gone_lines = [line for line in r.stdout.splitlines() if line.split()[:2] == ["info", "gone"]]
     assert gone_lines and device_id in gone_lines[0] and "stopping" in gone_lines[0], r.stdout
+
+
+def test_doctor_names_a_flapping_camera_and_its_host(daemon, realdds_server, free_domain):
+    # Its server killed (its lease runs out: lease-expired) and started again at once:
+    # the camera is back within a minute of its removal, a flap.
+    d = daemon([free_domain])
+    ep = "unix:" + d.socket
+    info = device_info(2)
+    server = realdds_server(free_domain, [info], name="flapping-host")
+    wait_for(lambda: len(d.device_ids()) == 1, timeout=20, what="the camera listed")
+    device_id = d.device_ids()[0]
+    address = d.get_json(f"/v1/devices/{device_id}")["server"]["addresses"][0]
+    server.kill()
+    wait_for(lambda: d.device_ids() == [], timeout=15, what="the camera removed by its lease")
+    realdds_server(free_domain, [info], name="flapping-host")
+    wait_for(lambda: d.device_ids() == [device_id], timeout=20, what="the camera back")
+    hist = d.get_json(f"/v1/devices/{device_id}/history")
+    assert hist["flaps"] == 1 and hist["removals"].get("lease-expired") == 1, hist
+
+    r = rs_discover("doctor", "--listen", "0", endpoint=ep)
+    flap_lines = [line for line in r.stdout.splitlines() if line.split()[:2] == ["warn", "flaps"]]
+    assert len(flap_lines) == 1, r.stdout
+    assert device_id in flap_lines[0] and "1 time" in flap_lines[0], flap_lines
+    # Named by the host it is on: its server's name and address.
+    assert f"server 'flapping-host' at {address}" in flap_lines[0], flap_lines

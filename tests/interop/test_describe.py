@@ -271,3 +271,26 @@ def test_a_camera_whose_set_never_completes_is_not_ready(free_domain, daemon, cy
              what="the real camera ready")
     assert "ready-stage" not in doc(real)
     assert d.healthy()
+
+
+def test_doctor_asks_a_camera_never_described(free_domain, daemon, cyclone_peer):
+    """By default (describe-eagerly off) no one has asked a camera for its set yet:
+    `doctor ID` asks, as librealsense would open it, and names one that never
+    completes, with its stage."""
+    d = daemon([free_domain])
+    silent = device_info(11)
+    writer = cyclone_peer(free_domain, "writer")
+    assert writer.next() == {"matched": True}
+    announce(d, writer, free_domain, silent)
+    cam_id = dds_id(free_domain, silent)
+    assert "ready" not in d.get_json(f"/v1/devices/{cam_id}")  # not known until asked
+    cli = os.path.join(os.environ["RSD_BUILD_DIR"], "client", "rs-discover")
+    asked = time.monotonic()
+    r = subprocess.run([cli, "--endpoint", "unix:" + d.socket, "doctor", "--json", "--listen", "0", silent["serial"]],
+                       capture_output=True, text=True, timeout=60)
+    print(f"\ndoctor ID on a camera never described: {time.monotonic() - asked:.2f} s")
+    [ready] = [f for f in json.loads(r.stdout)["findings"] if f["topic"] == "ready"]
+    assert ready["verdict"] == "warn" and "stopped at no device-header" in ready["text"], ready
+    assert r.returncode == 1
+    doc = d.get_json(f"/v1/devices/{cam_id}")
+    assert doc["ready"] is False and doc["ready-stage"] == "no device-header", doc

@@ -221,9 +221,17 @@ def test_second_interface_hot_added(free_domain, daemon, realdds_server, lab):
 
 def test_unplugged_and_plugged_again(free_domain, daemon, realdds_server, lab):
     d, cam_id, a, server = camera_listed_on_a(free_domain, daemon, realdds_server, lab)
+    unplugged = time.monotonic()
     lab.unplug("rsdA")  # both ends of the pair go
     wait_for(lambda: d.device_ids() == [], timeout=LEASE_S + 5, what="the camera gone with its network")
+    gone_after = time.monotonic() - unplugged
     assert list(interfaces(d)) == ["lo"]
+    # It left with its interface: the daemon joined anew on what is left and did not
+    # hear it there, before its server's lease could run out on the old participant.
+    status, _, body = d.request(f"/v1/devices/{cam_id}")
+    assert status == 410, (status, body)
+    assert json.loads(body)["gone"]["reason"] == "interface-gone", body
+    print(f"\nunplugged -> removed (interface-gone) in {gone_after:.2f} s")
     server.kill()  # Fast DDS does not follow interfaces either: the camera restarts with its network
     since = time.monotonic()
     lab.plug(a, 0, "rsdA")

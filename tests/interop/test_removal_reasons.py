@@ -20,12 +20,14 @@ def dds_id(domain, info):
     return f"dds-{domain}-" + info["topic-root"].replace("/", ".")
 
 
-def removed_within(events, device_id, timeout):
-    start = time.monotonic()
+def removed_within(events, device_id, timeout, since=None):
+    """The removed event, and its time (as read) from `since` (the cause: taken before
+    the command that causes it, whose reply may come after the event), else from now."""
+    start = time.monotonic() if since is None else since
     while True:
         ev = events.next(timeout=max(0.1, timeout - (time.monotonic() - start)))
         if ev["event"] == "removed" and ev["json"]["id"] == device_id:
-            return ev, time.monotonic() - start
+            return ev, ev.get("t", time.monotonic()) - start
 
 
 def check_gone(d, device_id, info, reason):
@@ -48,14 +50,16 @@ def test_stopping_writer_gone_and_kill_each_have_their_reason(free_domain, daemo
     wait_for(lambda: len(d.devices()) == 3, what="three devices")
     events = EventStream(d)
 
+    since = time.monotonic()
     server.command(cmd="disconnect", **{"topic-root": a["topic-root"]})  # 'stopping'
-    ev, took = removed_within(events, dds_id(dom, a), 10)
+    ev, took = removed_within(events, dds_id(dom, a), 10, since)
     assert ev["json"]["reason"] == "stopping"
     print(f"stopping -> removed(stopping): {took:.3f} s")
     check_gone(d, dds_id(dom, a), a, "stopping")
 
+    since = time.monotonic()
     server.command(cmd="remove", **{"topic-root": b["topic-root"]})  # its DataWriter is deleted
-    ev, took = removed_within(events, dds_id(dom, b), 10)
+    ev, took = removed_within(events, dds_id(dom, b), 10, since)
     assert ev["json"]["reason"] == "writer-gone"
     print(f"writer deleted -> removed(writer-gone): {took:.3f} s")
     check_gone(d, dds_id(dom, b), b, "writer-gone")

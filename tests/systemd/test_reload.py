@@ -3,6 +3,7 @@ new domains are joined and removed ones left, devices of unchanged domains stay
 untouched; an invalid file keeps the running configuration and says why in the
 log and in STATUS=. RELOADING=1 and READY=1 bracket it."""
 import signal
+import time
 
 from conftest import EventStream, device_info, wait_for
 from svc_util import notify_socket, write_config  # noqa: F401  (fixture)
@@ -45,10 +46,13 @@ def test_reload_joins_and_leaves_domains_keeping_unchanged_ones(tmp_path, domain
     assert next(x for x in d.devices() if x["domain"] == a)["first-seen"] == kept["first-seen"]
 
     write_config(config, domains=[b], usb=False)
+    hup = time.monotonic()
     ready = reload(d, notify_socket)
     assert joined(d) == [b]
     removed = stream.next(timeout=10)
+    print(f"\nreload (domain dropped) -> removed(domain-left): {removed['t'] - hup:.3f} s")
     assert removed["event"] == "removed" and removed["json"]["domain"] == a, removed
+    assert removed["json"]["reason"] == "domain-left", removed
     assert [x["domain"] for x in d.devices()] == [b]
     assert ready["STATUS"] == f"1 device on DDS domain {b}", ready
     log = d.log()

@@ -1047,6 +1047,39 @@ TEST(Client, ListsAndGets) {
   EXPECT_EQ(health.devices, 2u);
 }
 
+TEST(Client, TellsAGoneCameraFromOneNeverSeen) {
+  Harness h;
+  h.upsert("a", camera({{"serial", "111"}}));
+  h.command("remove a lease-expired");
+  Client c(h.endpoint());
+  EXPECT_FALSE(c.find_device("a"));
+  EXPECT_FALSE(c.find_device("never-seen"));
+  const auto status_of = [&](const std::string& id) {
+    try {
+      c.get_device(id);
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ErrorCode::not_found) << id;
+      return std::pair(e.http_status(), std::string(e.what()));
+    }
+    return std::pair(200, std::string());
+  };
+  const auto [gone_status, gone_words] = status_of("a");
+  EXPECT_EQ(gone_status, 410);
+  EXPECT_NE(gone_words.find("lease-expired"), std::string::npos) << gone_words;  // says why
+  EXPECT_EQ(status_of("111").first, 410);  // by its serial too
+  EXPECT_EQ(status_of("never-seen").first, 404);
+  const json history = json::parse(c.device_history("a"));
+  EXPECT_EQ(history["state"], "gone");
+  EXPECT_EQ(history["gone"]["reason"], "lease-expired");
+  EXPECT_EQ(history["removals"]["lease-expired"], 1);
+  try {
+    c.device_history("never-seen");
+    ADD_FAILURE() << "a history for a camera never seen";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.http_status(), 404);
+  }
+}
+
 TEST(Client, ListWaitsForTheCompleteTable) {
   Harness h({"--domains", kIncomplete});
   Client c(h.endpoint());

@@ -445,3 +445,31 @@ TEST_F(Book, AClientLeavingIsOneChangeHeldUntilItsEndpointsAreGone) {
   EXPECT_FALSE(unheld.set_in_use(root, InUse{0, {}}, t0));
   EXPECT_FALSE((*other.find(id("100"))).contains("in-use"));
 }
+
+TEST_F(Book, AKeptDevicesServerSilentForANewReaderIsAskedAgainSooner) {
+  // After a refresh on a lossy link: the device is kept, its server's writers match
+  // the new reader, and its broadcast is lost. Its idle writer is known already,
+  // so one silent writer is all there is; it is asked again after the shorter grace.
+  book.writer_matched(1, writer(1, 1), t0);
+  book.writer_matched(2, writer(1, 2), t0);
+  book.sample(1, info("100"));
+  EXPECT_FALSE(book.tick(t0 + 3s, {1, 2}).make_reader_anew);  // writer 2 idle? not yet judged
+  book.participant_made();
+  book.reader_made(t0 + 10s);
+  book.writer_matched(1, writer(1, 1), t0 + 10s);
+  book.writer_matched(2, writer(1, 2), t0 + 10s);
+  EXPECT_EQ(book.next_deadline(t0 + 10s), t0 + 10s + options.awaited_silent_grace);
+  EXPECT_FALSE(book.tick(t0 + 10s + options.awaited_silent_grace - 1ms, {1, 2}).make_reader_anew);
+  EXPECT_TRUE(book.tick(t0 + 10s + options.awaited_silent_grace, {1, 2}).make_reader_anew);
+  // Lost again for the next reader: a writer that announced a device is not idle.
+  book.reader_made(t0 + 12s);
+  book.writer_matched(1, writer(1, 1), t0 + 12s);
+  book.writer_matched(2, writer(1, 2), t0 + 12s);
+  EXPECT_TRUE(book.tick(t0 + 13s, {1, 2}).make_reader_anew);
+  book.reader_made(t0 + 14s);
+  book.writer_matched(1, writer(1, 1), t0 + 14s);
+  book.writer_matched(2, writer(1, 2), t0 + 14s);
+  book.sample(1, info("100"));  // heard: nothing more to ask
+  for (int s = 15; s < 60; ++s) EXPECT_FALSE(book.tick(t0 + std::chrono::seconds(s), {1, 2}).make_reader_anew);
+  EXPECT_TRUE(table.find(id("100")));
+}

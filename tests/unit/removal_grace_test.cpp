@@ -80,3 +80,60 @@ TEST(RemovalGrace, WithoutItTheLeaseRemovesAtOnceAndTheLossIsHandedOn) {
   EXPECT_EQ(book.take_lease_losses().size(), 1u);
   EXPECT_TRUE(book.take_lease_losses().empty());  // taken once
 }
+
+TEST(RemovalGrace, HeardAgainButNotItsDeviceYetIsKeptOnceMore) {
+  // A lossy link: the server's participant is heard again within the grace, but the
+  // refresh and the new reader that bring its device-info back take longer.
+  rsd::SharedTable table;
+  DomainBook book(table, with_grace(5s));
+  announce_then_lose_by_lease(book);
+  book.participant_alive(writer(1, 1).participant_guid, t0 + 3s);
+  book.participant_made();  // the refresh that follows: the new participant has not heard it yet
+  book.tick(t0 + 6s, {});
+  auto dev = table.find(id("100"));
+  ASSERT_TRUE(dev);
+  EXPECT_EQ((*dev)["unresponsive"], true);
+  EXPECT_EQ(book.next_deadline(t0 + 6s).value_or(t0), t0 + 6s + with_grace(5s).heard_again_grace);
+  book.writer_matched(1, writer(1, 1), t0 + 8s);
+  book.sample(1, info("100"));
+  book.tick(t0 + 20s, {1});
+  dev = table.find(id("100"));
+  ASSERT_TRUE(dev);
+  EXPECT_FALSE(dev->contains("unresponsive"));
+  EXPECT_EQ(table.counts().removals[static_cast<std::size_t>(rsd::model::RemovalReason::lease_expired)], 0u);
+}
+
+TEST(RemovalGrace, HeardAgainButNeverItsDeviceIsRemovedAfterTheSecondGrace) {
+  rsd::SharedTable table;
+  DomainBook book(table, with_grace(5s));
+  announce_then_lose_by_lease(book);
+  book.participant_alive(writer(1, 1).participant_guid, t0 + 3s);
+  book.tick(t0 + 6s, {});
+  const auto second_end = t0 + 6s + with_grace(5s).heard_again_grace;
+  book.tick(second_end - 1ms, {});
+  EXPECT_TRUE(table.find(id("100")));
+  book.tick(second_end, {});  // extended once only
+  EXPECT_FALSE(table.find(id("100")));
+  EXPECT_EQ(table.find_gone(id("100"))->reason, rsd::model::RemovalReason::lease_expired);
+}
+
+TEST(RemovalGrace, HeardAgainInEachExtensionIsKeptAFewTimesAtMost) {
+  // A link that keeps losing the server: each time it is heard again the grace goes
+  // on, a few times; a server heard for ever without its device cannot keep it.
+  rsd::SharedTable table;
+  const auto options = with_grace(5s);
+  DomainBook book(table, options);
+  announce_then_lose_by_lease(book);
+  auto end = t0 + 6s;
+  for (int i = 0; i < DomainBook::kMaxGraceExtensions; ++i) {
+    book.participant_alive(writer(1, 1).participant_guid, end - 1s);
+    book.participant_gone(writer(1, 1).participant_guid, end - 500ms);  // lost again
+    book.tick(end, {});
+    ASSERT_TRUE(table.find(id("100"))) << i;
+    end += options.heard_again_grace;
+  }
+  book.participant_alive(writer(1, 1).participant_guid, end - 1s);
+  book.tick(end, {});
+  EXPECT_FALSE(table.find(id("100")));
+  EXPECT_EQ(table.find_gone(id("100"))->reason, rsd::model::RemovalReason::lease_expired);
+}

@@ -387,8 +387,11 @@ def test_reload_turns_usb_off_and_on_live(bed, usb_daemon, tmp_path):
     events = TimedEvents(d)
 
     config.write_text(json.dumps({"usb": False}))
+    hup = time.monotonic()
     d.signal(signal.SIGHUP)
-    events.expect("removed", D455_ID)
+    gone = events.expect("removed", D455_ID)
+    print(f"\nreload (usb off) -> removed(domain-left): {time.monotonic() - hup:.3f} s")
+    assert gone["json"]["reason"] == "domain-left", gone  # left by the reload, not unplugged
     wait_for(lambda: d.get_json("/healthz")["usb"] == {"state": "off"}, 5, what="/healthz usb off")
     assert d.device_ids() == []
     assert "rsd_usb_devices" not in d.request("/metrics")[2].decode()
