@@ -22,14 +22,11 @@
 namespace rsd::dds {
 namespace {
 
-// Cyclone receives into 1 MiB ring buffers by default, one per receiving thread,
-// and a ring's pages become resident one by one as messages pass through it: with
-// discovery's little traffic a ring takes minutes to fill, so the daemon's RSS crept
-// up by a ring's size for many minutes (the soak) and then see-sawed by as much
-// each time a ring was replaced. Discovery traffic is small: 256 KiB
-// rings fill in the first minutes and keep RSS flat after. Messages are still
-// received in Cyclone's default 128 KiB chunks (Fast DDS sends datagrams of up to
-// 64 KiB). The user's configuration can set other sizes.
+// Cyclone receives into 1 MiB ring buffers by default, one per receiving thread, whose
+// pages become resident as messages pass: with discovery's little traffic the RSS crept
+// up for many minutes (the soak), then see-sawed each time a ring was replaced; 256 KiB
+// rings fill in the first minutes and keep RSS flat after. Messages are still received
+// in 128 KiB chunks (Fast DDS sends up to 64 KiB). A user's configuration overrides.
 //
 // One receive thread for all sockets (MultipleReceiveThreads false): Cyclone stops
 // a thread of its own per socket by sending that socket a packet through the
@@ -405,11 +402,8 @@ void DomainSession::take_samples(dds_entity_t reader) {
         std::lock_guard lock(mutex_);
         identify(reader, info.publication_handle);
         book_.sample(info.publication_handle, std::move(parsed));
-        if (!root.empty()) {  // its clients may have come first, counted for a camera its root extends
-          std::set<std::string> roots{root};
-          for (std::size_t u = root.find('_'); u != std::string::npos; u = root.find('_', u + 1)) roots.insert(root.substr(0, u));
-          update_in_use(roots);
-        }
+        // Its clients may have come first, counted for a camera its root extends.
+        if (!root.empty()) update_in_use(realdds_topics::root_and_prefixes(root));
       } catch (const std::exception& e) {
         log::error(std::string("device-info sample dropped: ") + e.what());
       }

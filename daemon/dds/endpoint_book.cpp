@@ -34,6 +34,12 @@ std::vector<std::string> roots_of(std::string_view topic) {
   return out;
 }
 
+std::set<std::string> root_and_prefixes(const std::string& root) {
+  std::set<std::string> out{root};
+  for (std::size_t u = root.find('_'); u != std::string::npos; u = root.find('_', u + 1)) out.insert(root.substr(0, u));
+  return out;
+}
+
 std::string_view stream_of(std::string_view topic, std::string_view root, const KnownRoot& known) {
   if (!topic.starts_with(kStreamPrefix)) return {};
   const std::string_view rest = topic.substr(kStreamPrefix.size());

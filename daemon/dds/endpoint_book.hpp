@@ -43,6 +43,9 @@ inline constexpr std::string_view kStreamPrefix = "rt/";
 // The topic-roots `topic` may belong to (a stream topic names its root only up to
 // one of its '_'); the caller keeps those that are cameras.
 std::vector<std::string> roots_of(std::string_view topic);
+// `root` and each of its prefixes up to one of its '_': the cameras whose stream topics
+// may have been counted for it before it was known.
+std::set<std::string> root_and_prefixes(const std::string& root);
 // Whether a topic-root is a known camera's (DomainBook's); an empty one knows none.
 using KnownRoot = std::function<bool(std::string_view)>;
 // The stream `topic` carries for the camera `root` ("Depth" of rt/<root>_Depth),
