@@ -157,10 +157,18 @@ int main(int argc, char** argv) {
   // glibc keeps what a burst freed (cameras come and gone, a large table emptied)
   // in its arenas until asked for it: its free pages are handed back once the burst
   // is over, kTrimAfter after the last change to the table or wake-up from DDS (a
-  // peer's departure frees more after the table has changed). Not on a clock: an
-  // idle daemon is not woken for it.
+  // peer's departure frees more after the table has changed), and on a network that
+  // never quietens down kTrimAtMost after the burst began. Not on a clock: an idle
+  // daemon is not woken for it.
   constexpr auto kTrimAfter = std::chrono::seconds(2);
+  constexpr auto kTrimAtMost = std::chrono::seconds(10);
   auto trim_at = Clock::time_point::max();
+  auto burst_began = Clock::time_point::max();
+  const auto trim_after_burst = [&] {
+    const auto now = Clock::now();
+    if (burst_began == Clock::time_point::max()) burst_began = now;
+    trim_at = std::min(now + kTrimAfter, burst_began + kTrimAtMost);
+  };
 
   bool running = true;
   bool usb_changed = true;  // the cameras listed at start, shared once the loop runs
@@ -168,7 +176,7 @@ int main(int argc, char** argv) {
     const auto now = Clock::now();
     if (now >= trim_at) {
       malloc_trim(0);
-      trim_at = Clock::time_point::max();
+      trim_at = burst_began = Clock::time_point::max();
     }
     // This host's cameras, announced to other hosts as soon as they change: the
     // USB source wakes the loop through usb.fd().
@@ -190,11 +198,11 @@ int main(int argc, char** argv) {
     if (pfds[2].revents & POLLIN) usb_changed = usb.changed();
     if (pfds[3].revents & POLLIN) {
       domains.woken();  // the sessions tick at the next turn
-      trim_at = Clock::now() + kTrimAfter;
+      trim_after_burst();
     }
     if (pfds[4].revents & POLLIN) {
       service.table_changed();  // STATUS= at the next turn
-      trim_at = Clock::now() + kTrimAfter;
+      trim_after_burst();
     }
     if (!(pfds[0].revents & POLLIN)) continue;
     signalfd_siginfo si{};
