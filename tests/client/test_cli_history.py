@@ -6,13 +6,18 @@ from client_util import rs_discover
 from conftest import device_info, wait_for
 
 
-def test_history_and_get_tell_gone_from_never_seen(daemon, realdds_server, free_domain):
-    d = daemon([free_domain])
-    ep = "unix:" + d.socket
-    info = device_info(1)
-    server = realdds_server(free_domain, [info], name="history-cli")
+def one_camera(daemon, realdds_server, domain, n, server_name):
+    """A daemon on `domain` listing camera `n` of a realdds server of its own:
+    (daemon, its endpoint, the device-info, the server, the camera's id)."""
+    d = daemon([domain])
+    info = device_info(n)
+    server = realdds_server(domain, [info], name=server_name)
     wait_for(lambda: len(d.device_ids()) == 1, timeout=20, what="the camera listed")
-    device_id = d.device_ids()[0]
+    return d, "unix:" + d.socket, info, server, d.device_ids()[0]
+
+
+def test_history_and_get_tell_gone_from_never_seen(daemon, realdds_server, free_domain):
+    d, ep, info, server, device_id = one_camera(daemon, realdds_server, free_domain, 1, "history-cli")
     server.command(cmd="disconnect", **{"topic-root": info["topic-root"]})  # 'stopping'
     wait_for(lambda: d.device_ids() == [], timeout=20, what="the camera removed")
 
@@ -43,12 +48,7 @@ def test_history_and_get_tell_gone_from_never_seen(daemon, realdds_server, free_
 def test_doctor_names_a_flapping_camera_and_its_host(daemon, realdds_server, free_domain):
     # Its server killed (its lease runs out: lease-expired) and started again at once:
     # the camera is back within a minute of its removal, a flap.
-    d = daemon([free_domain])
-    ep = "unix:" + d.socket
-    info = device_info(2)
-    server = realdds_server(free_domain, [info], name="flapping-host")
-    wait_for(lambda: len(d.device_ids()) == 1, timeout=20, what="the camera listed")
-    device_id = d.device_ids()[0]
+    d, ep, info, server, device_id = one_camera(daemon, realdds_server, free_domain, 2, "flapping-host")
     address = d.get_json(f"/v1/devices/{device_id}")["server"]["addresses"][0]
     server.kill()
     wait_for(lambda: d.device_ids() == [], timeout=15, what="the camera removed by its lease")
