@@ -127,20 +127,6 @@ def measure(build, rounds):
         events = conftest.EventStream(d, query=f"?serial={SERIAL}")
         cleanup.append(events.close)
 
-        def changes(timeout):
-            """The `changed` events of the next `timeout` seconds, with their arrival."""
-            out, deadline = [], time.monotonic() + timeout
-            while (left := deadline - time.monotonic()) > 0:
-                try:
-                    ev = events.events.get(timeout=left)
-                except queue.Empty:
-                    break
-                if ev is None:
-                    raise BenchError("the event stream ended")
-                if ev.get("event") == "changed":
-                    out.append(ev)
-            return out
-
         def first_change(timeout, what):
             deadline = time.monotonic() + timeout
             while time.monotonic() < deadline:
@@ -177,7 +163,7 @@ def measure(build, rounds):
             legs["device_to_listed"].append((ev["t"] - made) * 1000)
             listed_at.append((made, ev["t"]))
             log(f"round {i}: device -> observer {(first - made) * 1000:.1f} ms, -> listed {(ev['t'] - made) * 1000:.1f} ms")
-            extra_changes["coming"] += len(changes(0.3))
+            extra_changes["coming"] += len(events.within(0.3))
             t0 = time.monotonic()
             client.proc.stdin.write("quit\n")
             client.proc.stdin.flush()
@@ -186,7 +172,7 @@ def measure(build, rounds):
                 raise BenchError(f"round {i}: still in use after the client quit: {ev.get('json')}")
             legs["quit_to_unlisted"].append((ev["t"] - t0) * 1000)
             client.close()
-            extra_changes["going"] += len(changes(0.3))
+            extra_changes["going"] += len(events.within(0.3))
         # The daemon's own discovery of each round's client, from its trace (written by
         # now: Cyclone flushes each line).
         found = list(daemon_discoveries(trace, INFO["topic-root"]).values())

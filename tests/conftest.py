@@ -386,6 +386,22 @@ class EventStream:
             if ev.get("event") in types:
                 return ev
 
+    def within(self, seconds, types=("changed",)):
+        """Every event of one of `types` the stream brings in the next `seconds`."""
+        import queue
+
+        out, deadline = [], time.monotonic() + seconds
+        while (left := deadline - time.monotonic()) > 0:
+            try:
+                ev = self.events.get(timeout=left)
+            except queue.Empty:
+                break
+            if ev is None:
+                pytest.fail("event stream ended")
+            if ev.get("event") in types:
+                out.append(ev)
+        return out
+
     def close(self):
         try:
             self.conn.sock.shutdown(socket.SHUT_RDWR)

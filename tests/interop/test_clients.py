@@ -9,7 +9,6 @@ event (timed from the client making its device, by the event's arrival; printed
 with pytest -s)."""
 import json
 import os
-import queue
 import signal
 import subprocess
 import sys
@@ -97,19 +96,6 @@ def device(d, cam_id):
     return d.get_json(f"/v1/devices/{cam_id}")
 
 
-def changes_within(events, seconds):
-    """The `changed` events the stream brings within `seconds`."""
-    out, deadline = [], time.monotonic() + seconds
-    while (left := deadline - time.monotonic()) > 0:
-        try:
-            ev = events.events.get(timeout=left)
-        except queue.Empty:
-            break
-        if ev and ev.get("event") == "changed":
-            out.append(ev["json"])
-    return out
-
-
 def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_server):
     d = daemon([free_domain])
     server = realdds_server(free_domain, [], name="d555-server")
@@ -136,7 +122,7 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     print(f"\ndevice-only client listed {listed_a * 1000:.0f} ms after it made its device")
     assert ev["json"]["in-use"] == {"clients": 1, "streaming": []}
     assert listed_a < LISTED_WITHIN
-    assert changes_within(events, 1.0) == []
+    assert events.within(1.0) == []
     assert names(d, xid) == ["my-robot-app"]
     entry = clients(d, xid)["clients"][0]
     assert entry["streams"] == [] and entry["vendor"] == "fast-dds" and entry["addresses"]
@@ -185,7 +171,7 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
         ev = events.next(types=("changed",))
     assert ev["json"]["in-use"] == {"clients": 2, "streaming": ["Depth"]}
     print(f"... streaming Depth {(ev['t'] - b.device_at) * 1000:.0f} ms after it made its device")
-    assert changes_within(events, 1.0) == []
+    assert events.within(1.0) == []
     assert names(d, xid) == ["depth-viewer", "my-robot-app"] and clients(d, xid)["streams"] == {"Depth": 1}
     by_name = {c["name"]: c for c in clients(d, xid)["clients"]}
     assert by_name["depth-viewer"]["streams"] == ["Depth"] and by_name["my-robot-app"]["streams"] == []
@@ -208,7 +194,7 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     print(f"clean exit: gone {gone_b * 1000:.0f} ms after quit")
     assert ev["json"]["in-use"] == {"clients": 1, "streaming": []}, ev["json"]
     assert gone_b < 1.0
-    assert changes_within(events, 1.0) == []
+    assert events.within(1.0) == []
     assert names(d, xid) == ["my-robot-app"] and device(d, xid)["in-use"] == {"clients": 1, "streaming": []}
     wait_for(lambda: watched("a client left (1 client, not streaming)"), what="watch: the streaming client left")
     t0 = time.monotonic()
@@ -218,7 +204,7 @@ def test_clients_of_a_camera_come_stream_and_go(free_domain, daemon, realdds_ser
     print(f"SIGKILL: gone {killed * 1000:.0f} ms after the kill (lease {LEASE} s)")
     assert "in-use" not in ev["json"], ev["json"]
     assert killed < LEASE + 1.0  # the lease runs from the client's last message, not from the kill
-    assert changes_within(events, 1.0) == []
+    assert events.within(1.0) == []
     assert names(d, xid) == [] and "in-use" not in device(d, xid)
     wait_for(lambda: watched("its last client left"), what="watch: the last client left")
     assert watch.interrupt() == 0, watch.errors
