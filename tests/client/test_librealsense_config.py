@@ -78,14 +78,16 @@ def test_no_config_then_fixed(camera, tmp_path):
 
 
 @pytest.mark.parametrize("case", ["domain", "mask", "broken", "disabled"])
-def test_each_cause_is_found_and_fixed(camera, tmp_path, case):
+def test_each_cause_is_found_and_fixed(camera, domains, tmp_path, case):
     d, domain, info = camera
+    # Held for this test like its own: an unheld id may be another test's, cameras and all.
+    elsewhere = domains.take(*DOMAIN_RANGE)
     home = tmp_path / "home"
     home.mkdir()
     path = home / ".realsense-config.json"
     other = {"realsense-viewer": {"context": {"dds": {"enabled": None}}}, "context": {"keep": 1}}
     texts = {
-        "domain": json.dumps({**other, "context": {"keep": 1, "dds": {"enabled": True, "domain": domain + 1}}}),
+        "domain": json.dumps({**other, "context": {"keep": 1, "dds": {"enabled": True, "domain": elsewhere}}}),
         "mask": json.dumps({**other, "context": {"keep": 1, "dds": {"enabled": True, "domain": domain},
                                                  "device-mask": 2}}),
         "broken": '{"context": {"dds": {"enabled": true,}}}',
@@ -94,7 +96,7 @@ def test_each_cause_is_found_and_fixed(camera, tmp_path, case):
     path.write_text(texts[case])
     assert query_devices(home)["serials"] == []
     line = librealsense_line(doctor(f"unix:{d.socket}", home))
-    want = {"domain": f"sets DDS domain {domain + 1}", "mask": "device-mask 0x2 leaves out product line D500",
+    want = {"domain": f"sets DDS domain {elsewhere}", "mask": "device-mask 0x2 leaves out product line D500",
             "broken": "does not parse", "disabled": "leaves DDS off"}[case]
     assert line.startswith("warn") and want in line, line
 
