@@ -5,6 +5,7 @@
 #include "dds/domain_session.hpp"
 
 #include "dds/builtin_topics.hpp"
+#include "dds/cyclone_defaults.hpp"
 
 #include "dds/flexible_topic.hpp"
 #include "dds/ros_nodes.hpp"
@@ -21,26 +22,6 @@
 
 namespace rsd::dds {
 namespace {
-
-// Cyclone receives into 1 MiB ring buffers by default, one per receiving thread, whose
-// pages become resident as messages pass: with discovery's little traffic the RSS crept
-// up for many minutes (the soak), then see-sawed each time a ring was replaced; 256 KiB
-// rings fill in the first minutes and keep RSS flat after. Messages are still received
-// in 128 KiB chunks (Fast DDS sends up to 64 KiB). A user's configuration overrides.
-//
-// One receive thread for all sockets (MultipleReceiveThreads false): Cyclone stops
-// a thread of its own per socket by sending that socket a packet through the
-// network, and once the host's address is gone (a renumbering, a lease lost, an
-// adapter unplugged) that send fails and deleting the domain waits for ever
-// (measured: 0.10.2, the participant made anew after the address was removed
-// never came; the main thread sat in dds_delete joining "recvMC"). The single
-// thread waits on a waitset that a pipe wakes. Discovery traffic is light.
-// The participant announces itself every second (Cyclone: every 8 s): a peer sends its
-// endpoints once it has heard it, and a refresh on a lossy link waited for the next.
-constexpr const char* kCycloneDefaults =
-    "<Sizing><ReceiveBufferSize>256KiB</ReceiveBufferSize></Sizing>"
-    "<Internal><MultipleReceiveThreads>false</MultipleReceiveThreads></Internal>"
-    "<Discovery><SPDPInterval>1 s</SPDPInterval></Discovery>";
 
 std::string dds_error(const char* what, dds_return_t rc) {
   return std::string(what) + ": " + dds_strretcode(rc);

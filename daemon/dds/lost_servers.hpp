@@ -17,7 +17,10 @@ struct LostServerTimes {
   // A refresh comes when the lost server's participant is heard again but none
   // of its devices follows within `rematch_grace` of the reader (measured: after
   // a 3-8 s cut the same Cyclone participant hears the server's participant
-  // again, yet never its writers; after 12 s and more it finds them by itself).
+  // again, yet never its writers: the server believes it told them already).
+  // No grace by default: waiting for a rematch that does not come only delayed
+  // the camera, and the new participant's discovery, on a lossy link, takes the
+  // longest part of its return.
   // A crashed server is never heard again under its GUID, so it costs nothing:
   // a blind refresh every few seconds slowed the removal of the next crashed
   // server (it cannot unmatch a reader it never matched). Blind ones only
@@ -25,7 +28,7 @@ struct LostServerTimes {
   // `refresh_again` later each time, up to `refresh_max`. A server lost longer
   // than `forget_after` is given up (a crashed one comes back under another GUID).
   std::chrono::milliseconds refresh_first{30000};
-  std::chrono::milliseconds rematch_grace{500};
+  std::chrono::milliseconds rematch_grace{0};
   // Only the participant that lost the server keeps that stale state: a fresh one
   // that hears it is left to match its writers, however long a lossy link makes
   // that take, and is refreshed again only if it loses the server too (its lease
