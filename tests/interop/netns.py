@@ -10,6 +10,8 @@ import itertools
 import os
 import subprocess
 
+import pytest
+
 _serial = itertools.count()
 
 
@@ -81,6 +83,14 @@ class TwoHosts:
     def destroy(self):
         for ns in (self.host, self.camera):
             subprocess.run(["ip", "netns", "del", ns], capture_output=True)
+
+
+@pytest.fixture
+def two_hosts():
+    """A fixture: the two hosts, destroyed after the test."""
+    net = TwoHosts()
+    yield net
+    net.destroy()
 
 
 class Lan:

@@ -27,10 +27,8 @@ import sys
 import threading
 import time
 
-import pytest
-
 from conftest import TESTS_DIR, EventStream, wait_for
-from netns import TwoHosts
+from netns import two_hosts  # noqa: F401 (a fixture)
 from test_realdds import dds_id
 
 LOSS_S = float(os.environ.get("RSD_LOSS_SECONDS", "25"))
@@ -43,13 +41,6 @@ BACK_WITHIN_S = 2.0
 ABSENT_AT_MOST_S = 0.10 * 60
 INFO = {"name": "Intel RealSense D555", "serial": "555000131", "product-line": "D500", "product-id": "0B56",
         "fw-version": "7.56.19829.840", "topic-root": "realsense/D555_555000131"}
-
-
-@pytest.fixture
-def two_hosts():
-    net = TwoHosts()
-    yield net
-    net.destroy()
 
 
 class Watcher:

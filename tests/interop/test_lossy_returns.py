@@ -13,23 +13,14 @@ import os
 import statistics
 import time
 
-import pytest
-
 from conftest import wait_for
-from netns import TwoHosts
+from netns import two_hosts  # noqa: F401 (a fixture)
 from test_realdds import dds_id
 
 TURNS = int(os.environ.get("RSD_RETURN_TURNS", "3"))
 CUT_S = 4.0
 INFO = {"name": "Intel RealSense D555", "serial": "555000139", "product-line": "D500", "product-id": "0B56",
         "fw-version": "7.56.19829.840", "topic-root": "realsense/D555_555000139"}
-
-
-@pytest.fixture
-def two_hosts():
-    net = TwoHosts()
-    yield net
-    net.destroy()
 
 
 def test_each_loss_returns(free_domain, daemon, realdds_server, two_hosts):

@@ -14,22 +14,13 @@ and prints its table of times.
 import os
 import time
 
-import pytest
-
 from conftest import EventStream, device_info, wait_for
-from netns import TwoHosts
+from netns import two_hosts  # noqa: F401 (a fixture)
 from test_realdds import LEASE_S, dds_id
 
 CUTS = [float(c) for c in os.environ.get("RSD_CUTS", "2 5 12").split()]
 REMOVE_WITHIN_S = LEASE_S + 1.0
 BACK_WITHIN_S = 5.0
-
-
-@pytest.fixture
-def two_hosts():
-    net = TwoHosts()
-    yield net
-    net.destroy()
 
 
 def test_cuts_heal_by_themselves(free_domain, daemon, realdds_server, two_hosts):
