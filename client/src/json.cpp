@@ -1,0 +1,214 @@
+// RapidJSON behind json.hpp: a strict, bounded parse, typed reads and the writers.
+#include "json.hpp"
+
+#include <rapidjson/memorystream.h>
+#include <rapidjson/prettywriter.h>
+#include <rapidjson/stringbuffer.h>
+#include <rapidjson/writer.h>
+
+#include <cstring>
+
+namespace rsdiscovery::json {
+namespace {
+
+// RapidJSON's tree builder (the document's own handler) with a bound on nesting; on
+// the way it notes where each object of one top-level array starts and ends.
+template <class Stream>
+class BoundedBuilder {
+ public:
+  BoundedBuilder(Document& doc, Stream& stream, std::string_view spans_of,
+                 std::vector<std::pair<std::size_t, std::size_t>>* spans)
+      : doc_(doc), stream_(stream), spans_of_(spans_of), spans_(spans) {}
+  bool too_deep() const { return too_deep_; }
+
+  bool Null() { return doc_.Null(); }
+  bool Bool(bool b) { return doc_.Bool(b); }
+  bool Int(int i) { return doc_.Int(i); }
+  bool Uint(unsigned u) { return doc_.Uint(u); }
+  bool Int64(std::int64_t i) { return doc_.Int64(i); }
+  bool Uint64(std::uint64_t u) { return doc_.Uint64(u); }
+  bool Double(double d) { return doc_.Double(d); }
+  bool RawNumber(const char* str, rapidjson::SizeType length, bool copy) { return doc_.RawNumber(str, length, copy); }
+  bool String(const char* str, rapidjson::SizeType length, bool copy) { return doc_.String(str, length, copy); }
+  bool Key(const char* str, rapidjson::SizeType length, bool copy) {
+    if (depth_ == 1) in_spans_ = spans_ && std::string_view(str, length) == spans_of_;
+    return doc_.Key(str, length, copy);
+  }
+  // The stream stands at the brace or just past it (the reader calls before or after
+  // taking it): device_list.cpp's cut allows for both.
+  bool StartObject() {
+    if (!enter()) return false;
+    if (depth_ == 3 && in_spans_) spans_->emplace_back(stream_.Tell(), 0);
+    return doc_.StartObject();
+  }
+  bool EndObject(rapidjson::SizeType members) {
+    if (depth_ == 3 && in_spans_ && !spans_->empty()) spans_->back().second = stream_.Tell();
+    return leave() && doc_.EndObject(members);
+  }
+  bool StartArray() { return enter() && doc_.StartArray(); }
+  bool EndArray(rapidjson::SizeType elements) { return leave() && doc_.EndArray(elements); }
+
+ private:
+  bool enter() {
+    too_deep_ = ++depth_ > kMaxDepth;
+    return !too_deep_;
+  }
+  bool leave() {
+    --depth_;
+    return true;
+  }
+  Document& doc_;
+  Stream& stream_;
+  std::string_view spans_of_;
+  std::vector<std::pair<std::size_t, std::size_t>>* spans_;
+  int depth_ = 0;
+  bool too_deep_ = false;
+  bool in_spans_ = false;
+};
+
+// RapidJSON 1.1.0 as bookworm ships it (1.1.0+dfsg2-7.1) adds a negative exponent of
+// nine digits to the count of a fraction's digits in an int, which a fraction of some
+// two billion digits underflows (CVE-2024-38517; trixie's 7.4 is patched). Nothing the
+// daemon writes has an exponent of more than three digits (it writes doubles the
+// shortest way), so a text with a longer one anywhere, inside a string too (this is
+// only a hint), is refused before RapidJSON meets it.
+bool has_long_exponent(std::string_view text) {
+  const auto digit = [&](std::size_t j) { return j < text.size() && text[j] >= '0' && text[j] <= '9'; };
+  // memchr to each letter: a loop over every byte was a seventh of a cold list.
+  for (const char letter : {'e', 'E'}) {
+    for (auto i = text.find(letter); i != std::string_view::npos; i = text.find(letter, i + 1)) {
+      std::size_t j = i + 1;
+      if (j < text.size() && (text[j] == '+' || text[j] == '-')) ++j;
+      if (digit(j) && digit(j + 1) && digit(j + 2) && digit(j + 3)) return true;
+    }
+  }
+  return false;
+}
+
+// RapidJSON checks UTF-8 byte by byte (a quarter of a cold list's instructions); text
+// of ASCII alone, the usual one, cannot be invalid and skips it.
+bool is_ascii(std::string_view text) {
+  std::uint64_t high = 0;  // eight bytes at a time: the loop is most of what a check costs
+  std::size_t i = 0;
+  for (; i + 8 <= text.size(); i += 8) {
+    std::uint64_t word;
+    std::memcpy(&word, text.data() + i, 8);
+    high |= word;
+  }
+  for (; i < text.size(); ++i) high |= static_cast<unsigned char>(text[i]);
+  return (high & 0x8080808080808080ULL) == 0;
+}
+
+// Iterative, so the parse itself never recurses; full precision, as nlohmann reads.
+constexpr unsigned kFlags = rapidjson::kParseIterativeFlag | rapidjson::kParseFullPrecisionFlag;
+
+template <unsigned Flags, class Stream>
+std::optional<std::string> parse_stream(std::string_view text, Stream& stream, Document& out,
+                                        std::string_view spans_of,
+                                        std::vector<std::pair<std::size_t, std::size_t>>* spans) {
+  // A NUL ends the parse as the end of the text would; JSON has none outside strings,
+  // nor raw inside them.
+  if (std::memchr(text.data(), '\0', text.size())) return "not JSON (a NUL byte)";
+  if (has_long_exponent(text)) return "not JSON from rs-discoveryd (a number with an exponent of 4 digits or more)";
+  BoundedBuilder<Stream> builder(out, stream, spans_of, spans);
+  rapidjson::Reader reader;
+  const bool ascii = is_ascii(text);
+  auto run = [&](Document&) {
+    const auto result = ascii ? reader.Parse<Flags>(stream, builder)
+                              : reader.Parse<Flags | rapidjson::kParseValidateEncodingFlag>(stream, builder);
+    return !result.IsError();
+  };
+  out.Populate(run);
+  if (builder.too_deep()) return "a JSON document nested deeper than " + std::to_string(kMaxDepth) + " levels";
+  if (reader.HasParseError()) {
+    out.SetNull();
+    return "not JSON";
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<std::string> parse(std::string_view text, Document& out) {
+  rapidjson::MemoryStream stream(text.data(), text.size());
+  return parse_stream<kFlags>(text, stream, out, {}, nullptr);
+}
+
+std::optional<std::string> parse_in_place(std::string& text, Document& out, std::string_view spans_of,
+                                          std::vector<std::pair<std::size_t, std::size_t>>* spans) {
+  rapidjson::InsituStringStream stream(text.data());
+  return parse_stream<kFlags | rapidjson::kParseInsituFlag>(text, stream, out, spans_of, spans);
+}
+
+Document parse_or_null(std::string_view text) {
+  Document doc;
+  if (parse(text, doc)) doc.SetNull();
+  return doc;
+}
+
+const Value* find(const Value& object, std::string_view key) {
+  if (!object.IsObject()) return nullptr;
+  for (const auto& m : object.GetObject())
+    if (std::string_view(m.name.GetString(), m.name.GetStringLength()) == key) return &m.value;
+  return nullptr;
+}
+
+std::optional<std::string_view> text(const Value* v) {
+  if (!v || !v->IsString()) return std::nullopt;
+  return std::string_view(v->GetString(), v->GetStringLength());
+}
+
+std::optional<std::int64_t> integer(const Value* v) {
+  if (!v || !v->IsInt64()) return std::nullopt;
+  return v->GetInt64();
+}
+
+std::optional<std::uint64_t> unsigned_integer(const Value* v) {
+  if (!v || !v->IsUint64()) return std::nullopt;
+  return v->GetUint64();
+}
+
+std::optional<double> number(const Value* v) {
+  if (!v || !v->IsNumber()) return std::nullopt;
+  return v->GetDouble();
+}
+
+std::optional<bool> boolean(const Value* v) {
+  if (!v || !v->IsBool()) return std::nullopt;
+  return v->GetBool();
+}
+
+std::string text_or(const Value* v, std::string_view fallback) { return std::string(text(v).value_or(fallback)); }
+
+std::vector<std::string> texts(const Value* v) {
+  std::vector<std::string> out;
+  if (!v || !v->IsArray()) return out;
+  for (const auto& e : v->GetArray())
+    if (e.IsString()) out.emplace_back(e.GetString(), e.GetStringLength());
+  return out;
+}
+
+std::string dump(const Value& v) {
+  rapidjson::StringBuffer buffer;
+  rapidjson::Writer<rapidjson::StringBuffer> writer(buffer);
+  v.Accept(writer);
+  return std::string(buffer.GetString(), buffer.GetSize());
+}
+
+std::string dump(const Value& v, int indent) {
+  if (indent < 0) return dump(v);
+  rapidjson::StringBuffer buffer;
+  rapidjson::PrettyWriter<rapidjson::StringBuffer> writer(buffer);
+  writer.SetIndent(' ', static_cast<unsigned>(indent));
+  v.Accept(writer);
+  return std::string(buffer.GetString(), buffer.GetSize());
+}
+
+std::string quote(std::string_view text) {
+  rapidjson::StringBuffer buffer;
+  rapidjson::Writer<rapidjson::StringBuffer> writer(buffer);
+  writer.String(text.data(), static_cast<rapidjson::SizeType>(text.size()));
+  return std::string(buffer.GetString(), buffer.GetSize());
+}
+
+}  // namespace rsdiscovery::json

@@ -1,0 +1,64 @@
+// The client's JSON: RapidJSON, the one JSON library of librsdiscovery and rs-discover,
+// behind the few calls they make. Why RapidJSON: a cold `rs-discover list` spent most
+// of its instructions parsing, and nlohmann's lexer alone is slower than RapidJSON
+// building its whole tree (bench/results/profile-cli-list.txt). It is header-only:
+// nothing more is loaded at a cold start.
+#pragma once
+
+#include <rapidjson/document.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace rsdiscovery::json {
+
+using Value = rapidjson::Value;
+using Document = rapidjson::Document;
+
+// Deeper documents are refused: what is read is read recursively (written out
+// again, looked through), and nothing the daemon writes comes near (a device-info is
+// cut at 16 levels: daemon/dds/device_info.hpp).
+inline constexpr int kMaxDepth = 64;
+
+// Parses `text` as one JSON value, as strictly as nlohmann does (numbers beyond a
+// double, lone surrogates, control characters, invalid UTF-8, trailing text and NULs
+// are refused; unit-tested). Returns why not, said for a user, or nothing.
+std::optional<std::string> parse(std::string_view text, Document& out);
+// The same, in place: `text` is rewritten and the strings of `out` point into it, so
+// it must outlive `out`. When `spans_of` is given, the [start, end) in `text` of each
+// object in the array that the top-level member of that name holds is noted in
+// `spans` (what device_list.cpp cuts each device's text by).
+std::optional<std::string> parse_in_place(std::string& text, Document& out, std::string_view spans_of = {},
+                                          std::vector<std::pair<std::size_t, std::size_t>>* spans = nullptr);
+// A Null document when `text` is not JSON, nothing said why (for text the daemon
+// wrote and the library already checked, such as Device::json).
+Document parse_or_null(std::string_view text);
+
+// The member `key` of `object`; nullptr when `object` is not an object or has none.
+const Value* find(const Value& object, std::string_view key);
+inline const Value* find(const Value* object, std::string_view key) { return object ? find(*object, key) : nullptr; }
+
+// A value as the type asked for; nothing when it is absent (nullptr) or of another type.
+std::optional<std::string_view> text(const Value* v);
+std::optional<std::int64_t> integer(const Value* v);            // a whole number within int64
+std::optional<std::uint64_t> unsigned_integer(const Value* v);  // a whole number >= 0
+std::optional<double> number(const Value* v);                   // any number
+std::optional<bool> boolean(const Value* v);
+// text(v) as a string, or `fallback`.
+std::string text_or(const Value* v, std::string_view fallback = {});
+// Every string element of an array, in order (other elements skipped); empty when
+// `v` is not an array.
+std::vector<std::string> texts(const Value* v);
+
+// `v` written out: compactly, or laid out as nlohmann's dump(indent) lays it out.
+std::string dump(const Value& v);
+std::string dump(const Value& v, int indent);
+// `text` as a JSON string literal, quotes included.
+std::string quote(std::string_view text);
+
+}  // namespace rsdiscovery::json
