@@ -8,7 +8,6 @@
 
 namespace rsdiscovery {
 
-using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -30,7 +29,7 @@ struct Client::Impl {
   std::mutex mutex;  // one request at a time on the connection
   detail::Transport transport;
 
-  json get_json(const std::string& path) {
+  json::Document get_json(const std::string& path) {
     std::lock_guard lock(mutex);
     return transport.get_json(path);
   }
@@ -41,9 +40,9 @@ struct Client::Impl {
   }
 
   // GET `path` again until the answer says the table is complete, or `deadline`.
-  json get_complete_json(const std::string& path, Clock::time_point deadline) {
+  json::Document get_complete_json(const std::string& path, Clock::time_point deadline) {
     for (;;) {
-      json reply = get_json(path);
+      json::Document reply = get_json(path);
       if (detail::reports_complete(reply) || Clock::now() >= deadline) return reply;
       pause_until(deadline);
     }
@@ -134,26 +133,20 @@ std::optional<Device> Client::Impl::find_device(const std::string& id, std::stri
     }
     if (reply.status != 404) break;
     // Absent from an incomplete table: it may be a camera not heard from yet.
-    auto body = json::parse(reply.body, nullptr, false);
-    if (!body.is_object() || detail::reports_complete(body) || Clock::now() >= deadline) return std::nullopt;
+    const auto body = json::parse_or_null(reply.body);
+    if (!body.IsObject() || detail::reports_complete(body) || Clock::now() >= deadline) return std::nullopt;
     pause_until(deadline);
   }
   if (reply.status == 409) {  // a serial or topic-root of several devices: the daemon lists their ids
-    auto body = json::parse(reply.body, nullptr, false);
-    std::string message = "'" + id + "' names several devices; name one by its id";
-    if (body.is_object() && body.contains("error") && body["error"].is_string())
-      message = body["error"].get<std::string>();
-    if (body.is_object() && body.contains("ids") && body["ids"].is_array())
-      for (const auto& other : body["ids"])
-        if (other.is_string()) message += "\n  " + other.get<std::string>();
+    const auto body = json::parse_or_null(reply.body);
+    std::string message =
+        json::text_or(json::find(body, "error"), "'" + id + "' names several devices; name one by its id");
+    for (const auto& other : json::texts(json::find(body, "ids"))) message += "\n  " + other;
     throw Error(ErrorCode::not_found, message, 409);
   }
   if (reply.status == 410) {
     if (gone) {
-      auto body = json::parse(reply.body, nullptr, false);
-      *gone = "device '" + id + "' is gone";
-      if (body.is_object() && body.contains("error") && body["error"].is_string())
-        *gone = body["error"].get<std::string>();
+      *gone = json::text_or(json::find(json::parse_or_null(reply.body), "error"), "device '" + id + "' is gone");
     }
     return std::nullopt;
   }
@@ -162,8 +155,8 @@ std::optional<Device> Client::Impl::find_device(const std::string& id, std::stri
     transport.get_json(path);  // turns the status into its Error
     malformed(endpoint, "GET " + path + " answered " + std::to_string(reply.status));
   }
-  auto doc = json::parse(reply.body, nullptr, false);
-  if (doc.is_discarded()) malformed(endpoint, "GET " + path + " is not JSON");
+  json::Document doc;
+  if (json::parse(reply.body, doc)) malformed(endpoint, "GET " + path + " is not JSON");
   return detail::device_from_json(doc, std::move(reply.body));
 }
 
@@ -190,14 +183,13 @@ Description Client::describe(const std::string& id, std::chrono::milliseconds ti
       const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
       reply = impl_->transport.get(path, std::max(left, std::chrono::milliseconds(1)));
     }
-    auto body = json::parse(reply.body, nullptr, false);
+    json::Document body;
+    const bool not_json = json::parse(reply.body, body).has_value();
     if (reply.status == 200) {
-      if (body.is_discarded()) malformed(impl_->endpoint, "GET " + path + " is not JSON");
-      return detail::description_from_json(body);
+      if (not_json) malformed(impl_->endpoint, "GET " + path + " is not JSON");
+      return detail::description_from_json(body, std::move(reply.body));
     }
-    std::string message;
-    if (body.is_object() && body.contains("error") && body["error"].is_string())
-      message = body["error"].get<std::string>();
+    const std::string message = json::text_or(json::find(body, "error"));
     if (reply.status == 404)
       throw Error(ErrorCode::not_found,
                   message.empty() ? "no device '" + id + "' at rs-discoveryd (" + impl_->endpoint.to_string() + ")"
@@ -231,11 +223,11 @@ Description Client::describe(const std::string& id, std::chrono::milliseconds ti
 }
 
 std::vector<DomainStatus> Client::domains() {
-  json reply = impl_->get_json("/v1/domains");
-  auto list = reply.find("domains");
-  if (list == reply.end() || !list->is_array()) malformed(impl_->endpoint, "no \"domains\" array");
+  const auto reply = impl_->get_json("/v1/domains");
+  const auto* list = json::find(reply, "domains");
+  if (!list || !list->IsArray()) malformed(impl_->endpoint, "no \"domains\" array");
   std::vector<DomainStatus> out;
-  for (const auto& d : *list) out.push_back(detail::domain_from_json(d));
+  for (const auto& d : list->GetArray()) out.push_back(detail::domain_from_json(d));
   return out;
 }
 
@@ -246,21 +238,23 @@ CameraClients Client::clients(const std::string& id) {
     std::lock_guard lock(impl_->mutex);
     reply = impl_->transport.get(path);
   }
-  auto body = json::parse(reply.body, nullptr, false);
+  json::Document body;
+  const bool not_json = json::parse(reply.body, body).has_value();
   // A 404 with the daemon's error is about the camera (none, or a USB one); one
   // without is an older daemon, which get_json says.
-  if (reply.status == 404 && body.is_object() && body.contains("error") && body["error"].is_string())
-    throw Error(ErrorCode::not_found, body["error"].get<std::string>(), 404);
-  if (reply.status != 200 || body.is_discarded()) return detail::clients_from_json(impl_->get_json(path));
+  if (const auto error = json::text(json::find(body, "error")); reply.status == 404 && error)
+    throw Error(ErrorCode::not_found, std::string(*error), 404);
+  if (reply.status != 200 || not_json) return detail::clients_from_json(impl_->get_json(path));
   return detail::clients_from_json(body);
 }
 
 std::vector<Participant> Client::participants(std::optional<int> domain) {
-  json reply = impl_->get_json(domain ? "/v1/participants?domain=" + std::to_string(*domain) : "/v1/participants");
-  auto list = reply.find("participants");
-  if (list == reply.end() || !list->is_array()) malformed(impl_->endpoint, "no \"participants\" array");
+  const auto reply =
+      impl_->get_json(domain ? "/v1/participants?domain=" + std::to_string(*domain) : "/v1/participants");
+  const auto* list = json::find(reply, "participants");
+  if (!list || !list->IsArray()) malformed(impl_->endpoint, "no \"participants\" array");
   std::vector<Participant> out;
-  for (const auto& p : *list) out.push_back(detail::participant_from_json(p));
+  for (const auto& p : list->GetArray()) out.push_back(detail::participant_from_json(p));
   return out;
 }
 

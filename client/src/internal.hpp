@@ -3,9 +3,7 @@
 
 #include "rsdiscovery/rsdiscovery.hpp"
 
-#include "rsd_model/device.hpp"
-
-#include <nlohmann/json.hpp>
+#include "json.hpp"
 
 #include <atomic>
 #include <chrono>
@@ -21,23 +19,25 @@
 namespace rsdiscovery::detail {
 
 // ---- JSON -> public types --------------------------------------------------------
-// `text`: the document as the daemon sent it, kept as Device::json; empty: written
+// Each throws Error(malformed_reply) for a document that is not what the API says.
+// `text`: the document as the daemon sent it, kept as the type's json; empty: written
 // anew from `doc`.
-Device device_from_json(const nlohmann::json& doc, std::string text = {});  // throws Error(malformed_reply)
-// The model's reading of a device as the public type, `text` its Device::json;
-// throws Error(malformed_reply) for a device without an id.
-Device device_from_model(rsd::model::Device m, std::string text);
+Device device_from_json(const json::Value& doc, std::string text = {});
 // GET `path`'s reply (a /v1/devices document) into `out`: each device with its text
 // as sent. A problem with the document is returned, said as for a user; a device
 // without an id throws Error(malformed_reply). `body` is parsed in place: what is
 // left of it means nothing.
 std::optional<std::string> read_device_list(std::string& body, const std::string& path, DeviceList& out);
-Description description_from_json(const nlohmann::json& doc);  // throws Error(malformed_reply)
-DomainStatus domain_from_json(const nlohmann::json& doc);
-Health health_from_json(const nlohmann::json& doc);
-Expected expected_from_json(const nlohmann::json& doc);  // throws Error(malformed_reply)
-Participant participant_from_json(const nlohmann::json& doc);
-CameraClients clients_from_json(const nlohmann::json& doc);
+Description description_from_json(const json::Value& doc, std::string text = {});
+DomainStatus domain_from_json(const json::Value& doc);
+Health health_from_json(const json::Value& doc);
+Expected expected_from_json(const json::Value& doc);
+Participant participant_from_json(const json::Value& doc);
+CameraClients clients_from_json(const json::Value& doc);
+// A remote-usb device's "host" and a DDS device's "in-use", read as device_from_json
+// reads the rest (whole or not at all).
+std::optional<SharingHost> host_of(const json::Value& doc);
+std::optional<DeviceInUse> in_use_of(const json::Value& doc);
 
 // The text of each element of the array that member `key` of the JSON object
 // `text` holds, as it stands in `text`; nothing when there is no such array.
@@ -49,12 +49,12 @@ std::vector<std::string_view> array_member_elements(std::string_view text, std::
 // The same device document, apart from fields that move without being news
 // ("last-seen"; "first-seen", which a restarted daemon sets anew for a camera that
 // never went away): what the watch compares to tell a real change.
-bool same_device(const nlohmann::json& a, const nlohmann::json& b);
+bool same_device(std::string_view a, std::string_view b);  // two documents' texts
 
 // Whether a /v1/devices, /healthz, /v1/domains or 404 document says the daemon's
 // first discovery is over. A document without "complete" (a daemon older than the
 // field) counts as complete: there is nothing to wait for.
-bool reports_complete(const nlohmann::json& doc);
+bool reports_complete(const json::Value& doc);
 
 // "/v1/devices?domain=7&product-line=D400" (values percent-encoded).
 std::string devices_path(const DeviceFilter& filter);
@@ -123,7 +123,7 @@ class Transport {
                  const std::string& if_none_match);
   // GET and parse a JSON object (status 200), mapping 404/405 on an API path to
   // version_mismatch and other statuses to http_error.
-  nlohmann::json get_json(const std::string& path);
+  json::Document get_json(const std::string& path);
 
   // An SSE stream. `on_open` runs once the reply's head is in (return false to
   // cancel), `on_data` for each chunk (false cancels). Returns when the stream ends.

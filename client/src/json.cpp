@@ -119,7 +119,7 @@ std::optional<std::string> parse_stream(std::string_view text, Stream& stream, D
     return !result.IsError();
   };
   out.Populate(run);
-  if (builder.too_deep()) return "a JSON document nested deeper than " + std::to_string(kMaxDepth) + " levels";
+  if (builder.too_deep()) return "a document nested deeper than " + std::to_string(kMaxDepth) + " levels";
   if (reader.HasParseError()) {
     out.SetNull();
     return "not JSON";

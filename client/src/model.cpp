@@ -3,12 +3,8 @@
 
 #include <cstring>
 
-#include "rsd_model/clients.hpp"
-#include "rsd_model/description.hpp"
-#include "rsd_model/expected.hpp"
-#include "rsd_model/participant.hpp"
 #include "rsd_model/removal.hpp"
-#include "rsd_model/status.hpp"
+#include "rsd_model/spelling.hpp"
 
 namespace rsdiscovery {
 
@@ -39,75 +35,6 @@ const char* to_string(Event::Type type) {
 }
 
 namespace detail {
-namespace {
-
-using nlohmann::json;
-
-[[noreturn]] void malformed(const std::string& what) {
-  throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: " + what);
-}
-
-// A document read through the shared model (rsd_model): its MalformedDocument
-// becomes the library's Error(malformed_reply), for every document alike.
-template <class Read>
-auto read_model(Read read, const json& doc) -> decltype(read(doc)) {
-  try {
-    return read(doc);
-  } catch (const rsd::model::MalformedDocument& e) {
-    malformed(e.what());
-  }
-}
-
-}  // namespace
-
-Device device_from_json(const json& doc, std::string text) {
-  if (!doc.is_object()) malformed("a device is not a JSON object");
-  return device_from_model(rsd::model::device_from_json(doc), text.empty() ? doc.dump() : std::move(text));
-}
-
-// The daemon's model (proto/model) reads the document; this only maps it onto the
-// public struct, which has to stay free of nlohmann.
-Device device_from_model(rsd::model::Device m, std::string text) {
-  if (m.id.empty()) malformed("a device has no \"id\"");
-  // Moved, not copied: the model is a step on the way (a cold list of 100 devices
-  // spent a tenth of its instructions copying strings across).
-  Device d;
-  d.id = std::move(m.id);
-  for (auto s : m.sources) d.sources.push_back(rsd::model::to_string(s));
-  if (m.source) d.source = rsd::model::to_string(*m.source);
-  if (d.sources.empty() && !d.source.empty()) d.sources.push_back(d.source);
-  if (d.source.empty() && !d.sources.empty()) d.source = d.sources.front();
-  d.domain = m.domain;
-  const auto take = [](std::optional<std::string>& v) { return v ? std::move(*v) : std::string(); };
-  d.topic_root = take(m.topic_root);
-  d.name = take(m.name);
-  d.serial = take(m.serial);
-  d.product_line = take(m.product_line);
-  d.product_id = take(m.product_id);
-  d.fw_version = take(m.fw_version);
-  d.recovery = m.recovery.value_or(false);
-  d.first_seen = take(m.first_seen);
-  d.last_seen = take(m.last_seen);
-  if (m.server) {
-    ServerInfo info;
-    info.participant_guid = take(m.server->participant_guid);
-    info.participant_name = take(m.server->participant_name);
-    if (m.server->addresses) info.addresses = std::move(*m.server->addresses);
-    d.server = std::move(info);
-  }
-  if (m.usb) {
-    UsbInfo info;
-    info.bus = m.usb->bus;
-    info.port_path = std::move(m.usb->port_path);
-    info.speed = std::move(m.usb->speed);
-    d.usb = std::move(info);
-  }
-  d.state = rsd::model::to_string(m.state());
-  d.warnings = std::move(m.warnings);
-  if (!d.warnings.empty()) d.warning = d.warnings.front();
-  d.json = std::move(text);
-  return d;
-}
 
 namespace {
 
@@ -178,142 +105,29 @@ std::vector<std::string_view> array_member_elements(std::string_view text, std::
   return out;
 }
 
-// The model (proto/model/rsd_model/status.hpp) reads the status documents, with the
-// daemon's own spelling and checks; these map them onto the public types.
-namespace {
-
-StreamProfile public_profile(const rsd::model::Profile& p) {
-  return {p.fps, p.format.value_or(""), p.width.value_or(0), p.height.value_or(0)};
-}
-
-std::vector<CameraOption> public_options(const std::vector<rsd::model::Option>& options) {
-  std::vector<CameraOption> out;
-  for (const auto& o : options)
-    out.push_back({o.name, o.value.is_null() ? std::string() : o.value.dump(), o.description.value_or(""),
-                   o.json.dump()});
-  return out;
-}
-
-}  // namespace
-
-Description description_from_json(const json& doc) {
-  auto m = read_model(rsd::model::description_from_json, doc);
-  Description d;
-  for (const auto& s : m.streams) {
-    CameraStream st;
-    st.name = s.name;
-    st.type = s.type;
-    st.sensor = s.sensor_name;
-    for (const auto& p : s.profiles) st.profiles.push_back(public_profile(p));
-    if (s.default_profile) st.default_profile = public_profile(*s.default_profile);
-    st.metadata = s.metadata_enabled;
-    st.options = public_options(s.options);
-    d.streams.push_back(std::move(st));
-  }
-  d.device_options = public_options(m.device_options);
-  d.json = doc.dump();
-  return d;
-}
-
-DomainStatus domain_from_json(const json& doc) {
-  auto m = read_model(rsd::model::domain_status_from_json, doc);
-  DomainStatus s;
-  s.domain = m.domain;
-  s.state = std::string(rsd::model::to_string(m.state));
-  s.participant_guid = m.participant_guid;
-  s.devices = m.devices;
-  s.accepted = m.accepted;
-  s.rejected = m.rejected;
-  s.complete = m.complete;
-  s.json = doc.dump();
-  return s;
-}
-
-CameraClients clients_from_json(const json& doc) {
-  auto m = read_model(rsd::model::device_clients_from_json, doc);
-  CameraClients out;
-  for (auto& c : m.clients)
-    out.clients.push_back({std::move(c.guid), std::move(c.name), std::string(rsd::model::to_string(c.vendor)),
-                           std::move(c.addresses), c.host.value_or(""), c.process.value_or(""), std::move(c.since),
-                           std::move(c.streams), std::move(c.ros_nodes)});
-  for (const auto& [name, readers] : m.streams) out.streams[name] = readers;
-  out.json = doc.dump();
-  return out;
-}
-
-Participant participant_from_json(const json& doc) {
-  auto m = read_model(rsd::model::participant_from_json, doc);
-  Participant p;
-  p.domain = m.domain;
-  p.guid = std::move(m.guid);
-  p.name = std::move(m.name);
-  p.vendor = std::string(rsd::model::to_string(m.vendor));
-  p.addresses = std::move(m.addresses);
-  p.host = m.host.value_or("");
-  p.process = m.process.value_or("");
-  p.lease_seconds = m.lease_seconds;
-  p.state = std::string(rsd::model::to_string(m.state));
-  p.first_seen = std::move(m.first_seen);
-  p.last_seen = std::move(m.last_seen);
-  p.device_info_writers = m.device_info_writers;
-  p.devices = m.devices;
-  p.never_announced = m.never_announced;
-  p.topic_roots = std::move(m.topic_roots);
-  p.endpoints = m.endpoints;
-  p.json = doc.dump();
-  return p;
-}
-
-Health health_from_json(const json& doc) {
-  auto m = read_model(rsd::model::health_from_json, doc);
-  Health h;
-  h.status = m.status;
-  h.version = m.version;
-  h.devices = m.devices;
-  h.complete = m.complete;
-  h.json = doc.dump();
-  return h;
-}
-
-Expected expected_from_json(const json& doc) {
-  auto m = read_model(rsd::model::expected_report_from_json, doc);
-  const auto public_list = [](const std::vector<rsd::model::ExpectedStatus>& list) {
-    std::vector<ExpectedCamera> out;
-    for (const auto& s : list)
-      out.push_back({s.camera.name, s.camera.serial, s.camera.topic_root, s.id.value_or(""), s.last_seen.value_or(""),
-                     s.reason.value_or("")});
-    return out;
-  };
-  Expected e;
-  e.complete = m.complete;
-  e.present = public_list(m.present);
-  e.missing = public_list(m.missing);
-  e.json = doc.dump();
-  return e;
-}
-
-bool same_device(const json& a, const json& b) {
-  if (!a.is_object() || !b.is_object()) return a == b;
+bool same_device(std::string_view a_text, std::string_view b_text) {
+  const auto a = json::parse_or_null(a_text), b = json::parse_or_null(b_text);
+  if (!a.IsObject() || !b.IsObject()) return a_text == b_text;
   // Not the camera's: the times move on every announcement, and an event's reason or
   // arrival rides on the document it carries, not on the one a list gives.
-  const auto ignored = [](const std::string& k) {
+  const auto ignored = [](std::string_view k) {
     return k == rsd::model::key::last_seen || k == rsd::model::key::first_seen || k == rsd::model::key::reason ||
            k == rsd::model::key::arrival || k == rsd::model::key::away_since;
   };
-  const auto covered = [&](const json& x, const json& y) {
-    for (auto it = x.begin(); it != x.end(); ++it) {
-      if (ignored(it.key())) continue;
-      auto other = y.find(it.key());
-      if (other == y.end() || *other != it.value()) return false;
+  const auto covered = [&](const json::Value& x, const json::Value& y) {
+    for (const auto& m : x.GetObject()) {
+      const std::string_view k(m.name.GetString(), m.name.GetStringLength());
+      if (ignored(k)) continue;
+      const auto* other = json::find(y, k);
+      if (!other || *other != m.value) return false;
     }
     return true;
   };
   return covered(a, b) && covered(b, a);
 }
 
-bool reports_complete(const json& doc) {
-  auto it = doc.find("complete");
-  return it == doc.end() || !it->is_boolean() || it->get<bool>();
+bool reports_complete(const json::Value& doc) {
+  return json::boolean(json::find(doc, "complete")).value_or(true);
 }
 
 std::string percent_encode(std::string_view text) {
@@ -362,43 +176,34 @@ std::string with_fields(std::string path, const std::vector<std::string>& fields
 }  // namespace detail
 
 std::string Device::field(const std::string& key) const {
-  auto doc = nlohmann::json::parse(json, nullptr, false);
-  if (!doc.is_object()) return {};
-  auto it = doc.find(key);
-  return it == doc.end() ? std::string() : it->dump();
+  const auto doc = json::parse_or_null(json);
+  const auto* v = json::find(doc, key);
+  return v ? json::dump(*v) : std::string();
 }
 
+namespace {
+
+// A document the caller hands in as text: refused as not JSON before it is read.
+json::Document parsed(const std::string& text) {
+  json::Document doc;
+  if (json::parse(text, doc)) throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: not JSON");
+  return doc;
+}
+
+}  // namespace
+
 Description parse_description(const std::string& json_text) {
-  auto doc = nlohmann::json::parse(json_text, nullptr, false);
-  if (doc.is_discarded()) throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: not JSON");
-  return detail::description_from_json(doc);
+  return detail::description_from_json(parsed(json_text), json_text);
 }
 
 std::optional<SharingHost> sharing_host(const Device& device) {
   if (device.source != "remote-usb") return std::nullopt;
-  SharingHost out;
-  const auto doc = nlohmann::json::parse(device.json, nullptr, false);
-  if (!doc.is_object()) return out;
-  auto host = rsd::model::device_from_json(doc).host;
-  if (!host) return out;
-  out.name = std::move(host->name);
-  out.addresses = std::move(host->addresses);
-  out.participant_guid = host->participant_guid.value_or("");
-  return out;
+  // A remote-usb device without a readable "host": a value with an empty name.
+  return detail::host_of(json::parse_or_null(device.json)).value_or(SharingHost{});
 }
 
-std::optional<DeviceInUse> in_use_of(const Device& device) {
-  const auto doc = nlohmann::json::parse(device.json, nullptr, false);
-  if (!doc.is_object() || !doc.contains("in-use")) return std::nullopt;
-  auto in_use = rsd::model::device_from_json(doc).in_use;
-  if (!in_use) return std::nullopt;
-  return DeviceInUse{in_use->clients, std::move(in_use->streaming)};
-}
+std::optional<DeviceInUse> in_use_of(const Device& device) { return detail::in_use_of(json::parse_or_null(device.json)); }
 
-Device parse_device(const std::string& json_text) {
-  auto doc = nlohmann::json::parse(json_text, nullptr, false);
-  if (doc.is_discarded()) throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: not JSON");
-  return detail::device_from_json(doc, json_text);
-}
+Device parse_device(const std::string& json_text) { return detail::device_from_json(parsed(json_text), json_text); }
 
 }  // namespace rsdiscovery

@@ -201,17 +201,13 @@ void Transport::drop_kept() {
 
 Error Transport::status_error(const std::string& path, const Reply& reply) {
   std::string detail;
-  auto doc = nlohmann::json::parse(reply.body, nullptr, false);
-  if (doc.is_object() && doc.contains("error") && doc["error"].is_string())
-    detail = doc["error"].get<std::string>();
+  detail = json::text_or(json::find(json::parse_or_null(reply.body), "error"));
   std::string where = endpoint_.to_string();
   if (reply.status == 404 || reply.status == 405) {
     std::string daemon_version;
     try {
       auto h = get(std::string("/healthz"));
-      auto hd = nlohmann::json::parse(h.body, nullptr, false);
-      if (hd.is_object() && hd.contains("version") && hd["version"].is_string())
-        daemon_version = hd["version"].get<std::string>();
+      daemon_version = json::text_or(json::find(json::parse_or_null(h.body), "version"));
     } catch (const Error&) {
     }
     // No rs-discoveryd's /healthz there either: another server has the address.
@@ -233,11 +229,11 @@ Error Transport::status_error(const std::string& path, const Reply& reply) {
                reply.status);
 }
 
-nlohmann::json Transport::get_json(const std::string& path) {
+json::Document Transport::get_json(const std::string& path) {
   Reply reply = get(path);
   if (reply.status != 200) throw status_error(path, reply);
-  auto doc = nlohmann::json::parse(reply.body, nullptr, false);
-  if (doc.is_discarded() || !doc.is_object())
+  json::Document doc;
+  if (json::parse(reply.body, doc) || !doc.IsObject())
     throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd at " +
                                                 endpoint_.to_string() + ": GET " + path +
                                                 " did not return a JSON object");

@@ -12,7 +12,6 @@
 
 namespace rsdiscovery {
 
-using nlohmann::json;
 using namespace std::chrono_literals;
 
 WatchCore::WatchCore(Endpoint endpoint, ClientOptions client_options, WatchOptions options)
@@ -93,7 +92,7 @@ std::vector<Device> WatchCore::devices() const {
   std::lock_guard lock(mutex_);
   std::vector<Device> out;
   out.reserve(known_.size());
-  for (const auto& [id, known] : known_) out.push_back(known.device);  // the daemon filtered the view already
+  for (const auto& [id, device] : known_) out.push_back(device);  // the daemon filtered the view already
   return out;
 }
 
@@ -276,8 +275,8 @@ void WatchCore::handle(const detail::SseMessage& m) {
     type = Event::Type::removed;
   else
     return;  // an event type of a later API version
-  auto doc = json::parse(m.data, nullptr, false);
-  if (doc.is_discarded() || !doc.is_object() || !doc.contains("id") || !doc["id"].is_string())
+  json::Document doc;
+  if (json::parse(m.data, doc) || !json::text(json::find(doc, "id")))
     throw Error(ErrorCode::malformed_reply, "malformed event from rs-discoveryd at " +
                                                 stream_.endpoint().to_string() + ": '" + m.event +
                                                 "' without a device document");
@@ -288,17 +287,16 @@ void WatchCore::handle(const detail::SseMessage& m) {
     if (*id <= listed_at_) return;
     last_id_ = id;
   }
-  apply(type, std::move(doc), id.value_or(0), false);
+  apply(type, detail::device_from_json(doc, m.data), id.value_or(0), false);
 }
 
-void WatchCore::apply(Event::Type type, json doc, std::uint64_t id, bool synthetic) {
+void WatchCore::apply(Event::Type type, Device device, std::uint64_t id, bool synthetic) {
   Event out;
   out.id = id;
   out.synthetic = synthetic;
   {
     std::lock_guard lock(mutex_);
-    std::string key = doc["id"].get<std::string>();
-    auto it = known_.find(key);
+    auto it = known_.find(device.id);
     if (type == Event::Type::removed) {
       if (it == known_.end()) {
         if (view_complete_) return;  // removed before we listed it: never seen
@@ -306,32 +304,42 @@ void WatchCore::apply(Event::Type type, json doc, std::uint64_t id, bool synthet
         known_.erase(it);
       }
       out.type = Event::Type::removed;
-      out.device = detail::device_from_json(doc);
+      out.device = std::move(device);
     } else {
-      if (it != known_.end() && detail::same_device(it->second.doc, doc)) {
+      if (it != known_.end() && detail::same_device(it->second.json, device.json)) {
         // A replay, or in the list already: nothing to report, but its times may be newer.
-        it->second.device = detail::device_from_json(doc);
-        it->second.doc = std::move(doc);
+        it->second = std::move(device);
         return;
       }
       out.type = it == known_.end() ? Event::Type::added : Event::Type::changed;
-      out.device = detail::device_from_json(doc);
-      known_[key] = Known{std::move(doc), out.device};
+      out.device = device;
+      known_[device.id] = std::move(device);
     }
   }
   sink_(std::move(out));
 }
 
-json WatchCore::list_complete() {
+DeviceList WatchCore::list_once() {
+  const std::string path = detail::devices_path(options_.filter());
+  detail::Reply reply = lister_.get(path);
+  if (reply.status != 200) throw lister_.status_error(path, reply);
+  DeviceList list;
+  if (auto problem = detail::read_device_list(reply.body, path, list))
+    throw Error(ErrorCode::malformed_reply,
+                "malformed reply from rs-discoveryd at " + lister_.endpoint().to_string() + ": " + *problem);
+  return list;
+}
+
+DeviceList WatchCore::list_complete() {
   const auto deadline =
       std::chrono::steady_clock::now() + std::max(options_.complete_timeout(), std::chrono::milliseconds::zero());
   for (;;) {
-    json reply = lister_.get_json(detail::devices_path(options_.filter()));
+    DeviceList list = list_once();
     // A daemon that has just (re)started answers at once, from a table that lacks
     // the cameras it has not heard from yet: compared with the view, that list would
     // report them removed, then added again a moment later. Only a complete list
     // tells real differences.
-    if (detail::reports_complete(reply) || std::chrono::steady_clock::now() >= deadline) return reply;
+    if (list.complete || std::chrono::steady_clock::now() >= deadline) return list;
     std::unique_lock lock(mutex_);
     const auto left = deadline - std::chrono::steady_clock::now();
     cv_.wait_for(lock, std::min<std::chrono::steady_clock::duration>(left, 50ms), [this] { return stop_.load(); });
@@ -349,25 +357,16 @@ std::optional<std::uint64_t> WatchCore::relist(bool emit) {
   // list is the starting point: what the daemon has now, with every later addition
   // still to come as an event; waiting there would fold cameras that arrive meanwhile
   // into the starting point, unreported.
-  json reply = compare ? list_complete() : lister_.get_json(detail::devices_path(options_.filter()));
-  std::optional<std::uint64_t> generation;
-  if (auto g = reply.find("generation"); g != reply.end() && g->is_number_unsigned())
-    generation = g->get<std::uint64_t>();
-  auto list = reply.find("devices");
-  if (list == reply.end() || !list->is_array())
-    throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd at " +
-                                                lister_.endpoint().to_string() +
-                                                ": /v1/devices has no \"devices\" array");
-  std::map<std::string, Known> fresh;  // the whole list read before the view changes
-  for (auto& d : *list) {
-    if (!d.is_object() || !d.contains("id") || !d["id"].is_string())
-      throw Error(ErrorCode::malformed_reply, "malformed reply from rs-discoveryd: a device has no \"id\"");
-    std::string id = d["id"].get<std::string>();
-    Device device = detail::device_from_json(d);
-    fresh[std::move(id)] = Known{std::move(d), std::move(device)};
+  DeviceList list = compare ? list_complete() : list_once();
+  // 0: a daemon whose list has no generation (older than it).
+  const auto generation = list.generation ? std::optional(list.generation) : std::nullopt;
+  std::map<std::string, Device> fresh;  // the whole list read before the view changes
+  for (auto& d : list.devices) {
+    std::string id = d.id;
+    fresh[std::move(id)] = std::move(d);
   }
   std::uint64_t at;
-  std::vector<json> gone;
+  std::vector<Device> gone;
   {
     std::lock_guard lock(mutex_);
     if (generation) {
@@ -380,12 +379,12 @@ std::optional<std::uint64_t> WatchCore::relist(bool emit) {
       view_complete_ = true;
       return generation;
     }
-    for (const auto& [key, known] : known_)
-      if (!fresh.count(key)) gone.push_back(known.doc);
+    for (const auto& [key, device] : known_)
+      if (!fresh.count(key)) gone.push_back(device);
     view_complete_ = true;
   }
-  for (auto& doc : gone) apply(Event::Type::removed, std::move(doc), at, true);
-  for (auto& [key, known] : fresh) apply(Event::Type::added, std::move(known.doc), at, true);
+  for (auto& device : gone) apply(Event::Type::removed, std::move(device), at, true);
+  for (auto& [key, device] : fresh) apply(Event::Type::added, std::move(device), at, true);
   return generation;
 }
 

@@ -42,14 +42,15 @@ class WatchCore {
   void run();
   void connect_once(bool& connected);
   void handle(const detail::SseMessage& message);
-  void apply(Event::Type type, nlohmann::json doc, std::uint64_t id, bool synthetic);
+  void apply(Event::Type type, Device device, std::uint64_t id, bool synthetic);
   // Lists the devices into the view (reporting the difference when `emit`); returns
   // the generation the list was taken at, when the daemon tells it.
   std::optional<std::uint64_t> relist(bool emit);
   // GET /v1/devices again until the daemon says its table is complete, or until
   // options_.complete_timeout; throws Error(cancelled) when the watch is stopped.
   // For re-lists that replace a view (after a resync), not for the first list.
-  nlohmann::json list_complete();
+  DeviceList list_complete();
+  DeviceList list_once();  // GET /v1/devices once, as the watch's filter says
   void status(bool connected, const std::string& message);
   void first_result(std::exception_ptr error);
 
@@ -62,13 +63,8 @@ class WatchCore {
 
   mutable std::mutex mutex_;
   std::condition_variable cv_;
-  // One device of the view: the document (compared with what arrives) and the Device
-  // made of it once, so that devices() is a copy, not a parse of every document.
-  struct Known {
-    nlohmann::json doc;
-    Device device;
-  };
-  std::map<std::string, Known> known_;  // the view: id -> device
+  // The view: id -> device, its document in Device::json (compared with what arrives).
+  std::map<std::string, Device> known_;
   bool view_complete_ = false;  // known_ came from a list (else from events only)
   std::optional<std::uint64_t> last_id_;
   // The generation of the last list: stream events up to it are already in the

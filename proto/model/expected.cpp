@@ -9,18 +9,6 @@ namespace rsd::model {
 
 namespace {
 
-namespace key {
-constexpr const char* name = "name";
-constexpr const char* serial = "serial";
-constexpr const char* topic_root = "topic-root";
-constexpr const char* id = "id";
-constexpr const char* last_seen = "last-seen";
-constexpr const char* reason = "reason";
-constexpr const char* complete = "complete";
-constexpr const char* expected = "expected";
-constexpr const char* present = "present";
-constexpr const char* missing = "missing";
-}  // namespace key
 
 bool fail(std::string* error, std::string message) {
   if (error) *error = std::move(message);
@@ -72,11 +60,11 @@ std::optional<ExpectedCamera> expected_from_json(const nlohmann::json& value, st
   if (!value.is_object()) return bad();
   ExpectedCamera out;
   for (const auto& [k, v] : value.items()) {
-    if (!v.is_string() || (k != key::name && k != key::serial && k != key::topic_root)) return bad();
-    (k == key::name ? out.name : k == key::serial ? out.serial : out.topic_root) = v.get<std::string>();
+    if (!v.is_string() || (k != expected_key::name && k != expected_key::serial && k != expected_key::topic_root)) return bad();
+    (k == expected_key::name ? out.name : k == expected_key::serial ? out.serial : out.topic_root) = v.get<std::string>();
   }
   if (out.serial.empty() == out.topic_root.empty()) return bad();
-  if (!out.name.empty() || value.contains(key::name))
+  if (!out.name.empty() || value.contains(expected_key::name))
     if (!good_name(out.name, error)) return std::nullopt;
   if (!good_key(out.key(), error)) return std::nullopt;
   return out;
@@ -90,12 +78,12 @@ namespace {
 
 nlohmann::json to_json(const ExpectedStatus& s) {
   nlohmann::json out = nlohmann::json::object();
-  if (!s.camera.name.empty()) out[key::name] = s.camera.name;
-  if (!s.camera.serial.empty()) out[key::serial] = s.camera.serial;
-  if (!s.camera.topic_root.empty()) out[key::topic_root] = s.camera.topic_root;
-  if (s.id) out[key::id] = *s.id;
-  if (s.last_seen) out[key::last_seen] = *s.last_seen;
-  if (s.reason) out[key::reason] = *s.reason;
+  if (!s.camera.name.empty()) out[expected_key::name] = s.camera.name;
+  if (!s.camera.serial.empty()) out[expected_key::serial] = s.camera.serial;
+  if (!s.camera.topic_root.empty()) out[expected_key::topic_root] = s.camera.topic_root;
+  if (s.id) out[expected_key::id] = *s.id;
+  if (s.last_seen) out[expected_key::last_seen] = *s.last_seen;
+  if (s.reason) out[expected_key::reason] = *s.reason;
   return out;
 }
 
@@ -108,13 +96,13 @@ std::vector<ExpectedStatus> statuses_from_json(const nlohmann::json& doc, const 
     constexpr const char* what = "an expected camera";
     want_object(e, what);
     ExpectedStatus s;
-    if (e.contains(key::name)) s.camera.name = text(e, key::name, what);
-    if (e.contains(key::serial)) s.camera.serial = text(e, key::serial, what);
-    if (e.contains(key::topic_root)) s.camera.topic_root = text(e, key::topic_root, what);
+    if (e.contains(expected_key::name)) s.camera.name = text(e, expected_key::name, what);
+    if (e.contains(expected_key::serial)) s.camera.serial = text(e, expected_key::serial, what);
+    if (e.contains(expected_key::topic_root)) s.camera.topic_root = text(e, expected_key::topic_root, what);
     if (s.camera.key().empty()) throw MalformedDocument("an expected camera has neither a serial nor a topic-root");
-    if (e.contains(key::id)) s.id = text(e, key::id, what);
-    if (e.contains(key::last_seen)) s.last_seen = text(e, key::last_seen, what);
-    if (e.contains(key::reason)) s.reason = text(e, key::reason, what);
+    if (e.contains(expected_key::id)) s.id = text(e, expected_key::id, what);
+    if (e.contains(expected_key::last_seen)) s.last_seen = text(e, expected_key::last_seen, what);
+    if (e.contains(expected_key::reason)) s.reason = text(e, expected_key::reason, what);
     out.push_back(std::move(s));
   }
   return out;
@@ -126,18 +114,18 @@ nlohmann::json to_json(const ExpectedReport& report) {
   nlohmann::json present = nlohmann::json::array(), missing = nlohmann::json::array();
   for (const auto& s : report.present) present.push_back(to_json(s));
   for (const auto& s : report.missing) missing.push_back(to_json(s));
-  return {{key::complete, report.complete},
-          {key::expected, report.expected()},
-          {key::present, std::move(present)},
-          {key::missing, std::move(missing)}};
+  return {{expected_key::complete, report.complete},
+          {expected_key::expected, report.expected()},
+          {expected_key::present, std::move(present)},
+          {expected_key::missing, std::move(missing)}};
 }
 
 ExpectedReport expected_report_from_json(const nlohmann::json& doc) {
   read_json::want_object(doc, "an expected list");
   ExpectedReport out;
-  out.complete = read_json::flag(doc, key::complete, "an expected list");
-  out.present = statuses_from_json(doc, key::present);
-  out.missing = statuses_from_json(doc, key::missing);
+  out.complete = read_json::flag(doc, expected_key::complete, "an expected list");
+  out.present = statuses_from_json(doc, expected_key::present);
+  out.missing = statuses_from_json(doc, expected_key::missing);
   return out;
 }
 

@@ -7,19 +7,6 @@ namespace rsd::model {
 
 namespace {
 
-namespace key {
-constexpr const char* domain = "domain";
-constexpr const char* lease_seconds = "lease-seconds";
-constexpr const char* state = "state";
-constexpr const char* first_seen = "first-seen";
-constexpr const char* last_seen = "last-seen";
-constexpr const char* device_info_writers = "device-info-writers";
-constexpr const char* devices = "devices";
-constexpr const char* silent_writers = "silent-writers";
-constexpr const char* never_announced = "never-announced";
-constexpr const char* topic_roots = "topic-roots";
-constexpr const char* endpoints = "endpoints";
-}  // namespace key
 
 constexpr const char* kWhat = "a participant entry";
 
@@ -31,14 +18,6 @@ int hex_digit(char c) {
 }
 
 }  // namespace
-
-std::optional<Vendor> parse_vendor(std::string_view name) {
-  return parse_name(name, {Vendor::fast_dds, Vendor::cyclone_dds, Vendor::rti_connext, Vendor::opendds, Vendor::other});
-}
-
-std::optional<ParticipantState> parse_participant_state(std::string_view name) {
-  return parse_name(name, {ParticipantState::alive, ParticipantState::gone});
-}
 
 std::string vendor_id_of(std::string_view guid) {
   if (guid.size() < 4) return "";
@@ -61,18 +40,18 @@ Vendor vendor_of(std::string_view vendor_id) {
 }
 
 nlohmann::json to_json(const Participant& p) {
-  nlohmann::json doc = {{key::domain, p.domain},
-                        {key::state, to_string(p.state)},
-                        {key::first_seen, p.first_seen},
-                        {key::last_seen, p.last_seen},
-                        {key::device_info_writers, p.device_info_writers},
-                        {key::devices, p.devices},
-                        {key::silent_writers, p.silent_writers},
-                        {key::never_announced, p.never_announced},
-                        {key::topic_roots, p.topic_roots},
-                        {key::endpoints, p.endpoints}};
+  nlohmann::json doc = {{participant_key::domain, p.domain},
+                        {participant_key::state, to_string(p.state)},
+                        {participant_key::first_seen, p.first_seen},
+                        {participant_key::last_seen, p.last_seen},
+                        {participant_key::device_info_writers, p.device_info_writers},
+                        {participant_key::devices, p.devices},
+                        {participant_key::silent_writers, p.silent_writers},
+                        {participant_key::never_announced, p.never_announced},
+                        {participant_key::topic_roots, p.topic_roots},
+                        {participant_key::endpoints, p.endpoints}};
   peer_json::write(doc, p);
-  if (p.lease_seconds) doc[key::lease_seconds] = *p.lease_seconds;
+  if (p.lease_seconds) doc[participant_key::lease_seconds] = *p.lease_seconds;
   return doc;
 }
 
@@ -80,27 +59,27 @@ Participant participant_from_json(const nlohmann::json& doc) {
   using namespace read_json;
   want_object(doc, kWhat);
   Participant p;
-  const auto& domain = member(doc, key::domain, kWhat);
+  const auto& domain = member(doc, participant_key::domain, kWhat);
   if (!domain.is_number_integer() || domain.get<std::int64_t>() < 0 || domain.get<std::int64_t>() > 232)
     throw MalformedDocument("a participant entry's \"domain\" is not a domain id");
   p.domain = domain.get<int>();
   peer_json::read(doc, p, kWhat);
-  if (auto it = doc.find(key::lease_seconds); it != doc.end()) {
+  if (auto it = doc.find(participant_key::lease_seconds); it != doc.end()) {
     if (!it->is_number()) throw MalformedDocument("a participant entry's \"lease-seconds\" is not a number");
     p.lease_seconds = it->get<double>();
   }
-  const auto state = text(doc, key::state, kWhat);
+  const auto state = text(doc, participant_key::state, kWhat);
   const auto parsed = parse_participant_state(state);
   if (!parsed) throw MalformedDocument("a participant entry has an unknown state '" + state + "'");
   p.state = *parsed;
-  p.first_seen = text(doc, key::first_seen, kWhat);
-  p.last_seen = text(doc, key::last_seen, kWhat);
-  p.device_info_writers = count(doc, key::device_info_writers, kWhat);
-  p.devices = count(doc, key::devices, kWhat);
-  p.silent_writers = count(doc, key::silent_writers, kWhat);
-  p.never_announced = flag(doc, key::never_announced, kWhat);
-  p.topic_roots = texts(doc, key::topic_roots, kWhat);
-  p.endpoints = count(doc, key::endpoints, kWhat);
+  p.first_seen = text(doc, participant_key::first_seen, kWhat);
+  p.last_seen = text(doc, participant_key::last_seen, kWhat);
+  p.device_info_writers = count(doc, participant_key::device_info_writers, kWhat);
+  p.devices = count(doc, participant_key::devices, kWhat);
+  p.silent_writers = count(doc, participant_key::silent_writers, kWhat);
+  p.never_announced = flag(doc, participant_key::never_announced, kWhat);
+  p.topic_roots = texts(doc, participant_key::topic_roots, kWhat);
+  p.endpoints = count(doc, participant_key::endpoints, kWhat);
   return p;
 }
 

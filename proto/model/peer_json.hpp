@@ -10,42 +10,32 @@
 
 namespace rsd::model::peer_json {
 
-namespace key {
-inline constexpr const char* guid = "guid";
-inline constexpr const char* name = "name";
-inline constexpr const char* vendor = "vendor";
-inline constexpr const char* vendor_id = "vendor-id";
-inline constexpr const char* addresses = "addresses";
-inline constexpr const char* host = "host";
-inline constexpr const char* process = "process";
-inline constexpr const char* pid = "pid";
-}  // namespace key
 
 template <class Peer>
 void write(nlohmann::json& doc, const Peer& p) {
-  doc[key::guid] = p.guid;
-  doc[key::name] = p.name;
-  doc[key::vendor] = to_string(p.vendor);
-  doc[key::vendor_id] = p.vendor_id;
-  doc[key::addresses] = p.addresses;
+  doc[peer_key::guid] = p.guid;
+  doc[peer_key::name] = p.name;
+  doc[peer_key::vendor] = to_string(p.vendor);
+  doc[peer_key::vendor_id] = p.vendor_id;
+  doc[peer_key::addresses] = p.addresses;
   // Only where the peer says them (Cyclone DDS peers do).
-  if (p.host) doc[key::host] = *p.host;
-  if (p.process) doc[key::process] = *p.process;
-  if (p.pid) doc[key::pid] = *p.pid;
+  if (p.host) doc[peer_key::host] = *p.host;
+  if (p.process) doc[peer_key::process] = *p.process;
+  if (p.pid) doc[peer_key::pid] = *p.pid;
 }
 
 template <class Peer>
 void read(const nlohmann::json& doc, Peer& p, const char* what) {
   using namespace read_json;
-  p.guid = text(doc, key::guid, what);
-  p.name = text(doc, key::name, what);
+  p.guid = text(doc, peer_key::guid, what);
+  p.name = text(doc, peer_key::name, what);
   // A vendor this client does not know yet (a newer daemon's) reads as "other".
-  p.vendor = parse_vendor(text(doc, key::vendor, what)).value_or(Vendor::other);
-  p.vendor_id = text(doc, key::vendor_id, what);
-  p.addresses = texts(doc, key::addresses, what);
-  if (doc.contains(key::host)) p.host = text(doc, key::host, what);
-  if (doc.contains(key::process)) p.process = text(doc, key::process, what);
-  p.pid = read_json::pid(doc, key::pid, what);
+  p.vendor = parse_vendor(text(doc, peer_key::vendor, what)).value_or(Vendor::other);
+  p.vendor_id = text(doc, peer_key::vendor_id, what);
+  p.addresses = texts(doc, peer_key::addresses, what);
+  if (doc.contains(peer_key::host)) p.host = text(doc, peer_key::host, what);
+  if (doc.contains(peer_key::process)) p.process = text(doc, peer_key::process, what);
+  p.pid = read_json::pid(doc, peer_key::pid, what);
 }
 
 }  // namespace rsd::model::peer_json

@@ -36,7 +36,16 @@ extern char** environ;
 
 using namespace rsdiscovery;
 using namespace std::chrono_literals;
-using nlohmann::json;
+using njson = nlohmann::json;
+
+namespace {
+// A document the daemon's side wrote (nlohmann) as the client parses it.
+rsdiscovery::json::Document client_doc(const njson& doc) {
+  rsdiscovery::json::Document out;
+  EXPECT_EQ(rsdiscovery::json::parse(doc.dump(), out), std::nullopt);
+  return out;
+}
+}  // namespace
 
 namespace {
 
@@ -222,23 +231,23 @@ TEST(Device, TakesEveryKnownFieldAndKeepsTheDocument) {
   EXPECT_FALSE(d.usb);
   EXPECT_EQ(d.field("multicast-ip"), "\"239.0.0.1\"");
   EXPECT_EQ(d.field("absent"), "");
-  EXPECT_EQ(json::parse(d.json)["fw-version"], "5.16.0.1");
+  EXPECT_EQ(njson::parse(d.json)["fw-version"], "5.16.0.1");
 }
 
 TEST(Device, ListSlicesAreEachDeviceExactlyAsSent) {
   // What Client::list keeps as Device::json: each element of "devices" cut out of
   // the reply, so it must be the element whatever its strings hold.
-  json list = {{"complete", true},
-               {"a-before", json::array({json::array({1, 2}), "x]", json::object({{"k", "}"}})})},
-               {"devices", json::array({json::object({{"id", "a\"b\\"}, {"name", "quote \" [brace] {x}"}}),
-                                        json::object({{"id", "c"}, {"nested", {{"deep", json::array({1, "2", nullptr})}}}}),
-                                        json::object({{"id", "\\\\"}, {"name", "caf\u00e9 \u2014 \\\""}})})},
+  njson list = {{"complete", true},
+               {"a-before", njson::array({njson::array({1, 2}), "x]", njson::object({{"k", "}"}})})},
+               {"devices", njson::array({njson::object({{"id", "a\"b\\"}, {"name", "quote \" [brace] {x}"}}),
+                                        njson::object({{"id", "c"}, {"nested", {{"deep", njson::array({1, "2", nullptr})}}}}),
+                                        njson::object({{"id", "\\\\"}, {"name", "caf\u00e9 \u2014 \\\""}})})},
                {"generation", 42}};
-  list["devices"].push_back({{"id", "d"}, {"devices", json::array({json::object({{"id", "inner"}})})}});
+  list["devices"].push_back({{"id", "d"}, {"devices", njson::array({njson::object({{"id", "inner"}})})}});
   for (const std::string& text : {list.dump(), list.dump(2)}) {  // compact, as the daemon writes, and spaced
     const auto slices = detail::array_member_elements(text, "devices");
     ASSERT_EQ(slices.size(), 4u) << text;
-    for (std::size_t i = 0; i < slices.size(); ++i) EXPECT_EQ(json::parse(slices[i]), list["devices"][i]);
+    for (std::size_t i = 0; i < slices.size(); ++i) EXPECT_EQ(njson::parse(slices[i]), list["devices"][i]);
     // The list reader notes the same spans while it parses (the scan is its fallback).
     std::string body = text;
     DeviceList out;
@@ -246,7 +255,7 @@ TEST(Device, ListSlicesAreEachDeviceExactlyAsSent) {
     ASSERT_EQ(out.devices.size(), 4u);
     for (std::size_t i = 0; i < slices.size(); ++i) EXPECT_EQ(out.devices[i].json, slices[i]) << i;
   }
-  EXPECT_EQ(detail::array_member_elements(json({{"devices", json::array()}}).dump(), "devices").size(), 0u);
+  EXPECT_EQ(detail::array_member_elements(njson({{"devices", njson::array()}}).dump(), "devices").size(), 0u);
   EXPECT_EQ(detail::array_member_elements(R"({"devices":[1, "two", true, null]})", "devices").size(), 4u);
   EXPECT_TRUE(detail::array_member_elements(R"({"other":[1]})", "devices").empty());
   EXPECT_TRUE(detail::array_member_elements(R"({"devices":{"id":1}})", "devices").empty());
@@ -271,42 +280,61 @@ rsd::usb::UsbSighting d435_sighting(std::uint16_t bcd_usb, double speed_mbps) {
   return s;
 }
 
-// Client::list reads with RapidJSON (device_list.cpp), everything else with nlohmann:
-// the same document must give the same devices either way, and the same documents must
-// be refused.
-void expect_same_device(const Device& a, const Device& b) {
-  EXPECT_EQ(a.id, b.id);
-  EXPECT_EQ(a.source, b.source);
-  EXPECT_EQ(a.sources, b.sources);
-  EXPECT_EQ(a.domain, b.domain);
-  EXPECT_EQ(a.topic_root, b.topic_root);
-  EXPECT_EQ(a.name, b.name);
-  EXPECT_EQ(a.serial, b.serial);
-  EXPECT_EQ(a.product_line, b.product_line);
-  EXPECT_EQ(a.product_id, b.product_id);
-  EXPECT_EQ(a.fw_version, b.fw_version);
-  EXPECT_EQ(a.recovery, b.recovery);
-  EXPECT_EQ(a.first_seen, b.first_seen);
-  EXPECT_EQ(a.last_seen, b.last_seen);
-  EXPECT_EQ(a.state, b.state);
-  EXPECT_EQ(a.warnings, b.warnings);
-  EXPECT_EQ(a.warning, b.warning);
-  ASSERT_EQ(a.server.has_value(), b.server.has_value());
-  if (a.server) {
-    EXPECT_EQ(a.server->participant_guid, b.server->participant_guid);
-    EXPECT_EQ(a.server->participant_name, b.server->participant_name);
-    EXPECT_EQ(a.server->addresses, b.server->addresses);
+// The daemon reads a device with its model (proto/model, on nlohmann), the client with
+// its own reader (device_list.cpp, on RapidJSON): every field of the public Device must
+// come out as the daemon's reading of the same document has it.
+void expect_read_as_the_daemon_reads(const Device& d, const njson& doc) {
+  const auto m = rsd::model::device_from_json(doc);
+  std::vector<std::string> sources;
+  for (auto x : m.sources) sources.push_back(rsd::model::to_string(x));
+  std::string source = m.source ? rsd::model::to_string(*m.source) : "";
+  if (sources.empty() && !source.empty()) sources.push_back(source);
+  if (source.empty() && !sources.empty()) source = sources.front();
+  EXPECT_EQ(d.id, m.id);
+  EXPECT_EQ(d.source, source);
+  EXPECT_EQ(d.sources, sources);
+  EXPECT_EQ(d.domain, m.domain);
+  EXPECT_EQ(d.topic_root, m.topic_root.value_or(""));
+  EXPECT_EQ(d.name, m.name.value_or(""));
+  EXPECT_EQ(d.serial, m.serial.value_or(""));
+  EXPECT_EQ(d.product_line, m.product_line.value_or(""));
+  EXPECT_EQ(d.product_id, m.product_id.value_or(""));
+  EXPECT_EQ(d.fw_version, m.fw_version.value_or(""));
+  EXPECT_EQ(d.recovery, m.recovery.value_or(false));
+  EXPECT_EQ(d.first_seen, m.first_seen.value_or(""));
+  EXPECT_EQ(d.last_seen, m.last_seen.value_or(""));
+  EXPECT_EQ(d.state, rsd::model::to_string(m.state()));
+  EXPECT_EQ(d.warnings, m.warnings);
+  EXPECT_EQ(d.warning, m.warnings.empty() ? "" : m.warnings.front());
+  ASSERT_EQ(d.server.has_value(), m.server.has_value());
+  if (d.server) {
+    EXPECT_EQ(d.server->participant_guid, m.server->participant_guid.value_or(""));
+    EXPECT_EQ(d.server->participant_name, m.server->participant_name.value_or(""));
+    EXPECT_EQ(d.server->addresses, m.server->addresses.value_or(std::vector<std::string>{}));
   }
-  ASSERT_EQ(a.usb.has_value(), b.usb.has_value());
-  if (a.usb) {
-    EXPECT_EQ(a.usb->bus, b.usb->bus);
-    EXPECT_EQ(a.usb->port_path, b.usb->port_path);
-    EXPECT_EQ(a.usb->speed, b.usb->speed);
+  ASSERT_EQ(d.usb.has_value(), m.usb.has_value());
+  if (d.usb) {
+    EXPECT_EQ(d.usb->bus, m.usb->bus);
+    EXPECT_EQ(d.usb->port_path, m.usb->port_path);
+    EXPECT_EQ(d.usb->speed, m.usb->speed);
   }
-  EXPECT_EQ(a.json, b.json);
+  const auto client = client_doc(doc);
+  const auto host = detail::host_of(client);
+  ASSERT_EQ(host.has_value(), m.host.has_value());
+  if (host) {
+    EXPECT_EQ(host->name, m.host->name);
+    EXPECT_EQ(host->addresses, m.host->addresses);
+    EXPECT_EQ(host->participant_guid, m.host->participant_guid.value_or(""));
+  }
+  const auto in_use = detail::in_use_of(client);
+  ASSERT_EQ(in_use.has_value(), m.in_use.has_value());
+  if (in_use) {
+    EXPECT_EQ(in_use->clients, m.in_use->clients);
+    EXPECT_EQ(in_use->streaming, m.in_use->streaming);
+  }
 }
 
-TEST(DeviceList, ReadsTheDaemonsListAsNlohmannReadsEachDevice) {
+TEST(DeviceList, ReadsTheDaemonsListAsTheDaemonReadsEachDevice) {
   // The daemon's own documents: its USB builder and its table, as in the test below.
   auto s = d435_sighting(0x0320, 5000);
   rsd::DeviceTable table;
@@ -324,14 +352,26 @@ TEST(DeviceList, ReadsTheDaemonsListAsNlohmannReadsEachDevice) {
                {{"source", "dds"}, {"domain", 7}, {"topic-root", "realsense/D455_1"},
                 {"name", "Intel RealSense D455 \u2014 caf\u00e9"}, {"serial", "1"}, {"product-line", "D400"},
                 {"recovery", true}, {"multicast-ip", "239.0.0.1"}, {"locked", false},
-                {"numbers", json::array({-1, 18446744073709551615ULL, 1.5, 1e300, 0})},
-                {"server", {{"participant-guid", "01.0f"}, {"addresses", json::array({"192.0.2.1", "10.1.2.3"})}}}},
+                {"numbers", njson::array({-1, 18446744073709551615ULL, 1.5, 1e300, 0})},
+                {"server", {{"participant-guid", "01.0f"}, {"addresses", njson::array({"192.0.2.1", "10.1.2.3"})}}}},
                "2026-11-23T13:10:21.000Z");
   table.upsert("dds-8-realsense.D405_2",
                {{"source", "dds"}, {"domain", "eight"}, {"serial", 2}, {"name", "a \"quoted\" \\ name\n"},
-                {"fw-version", nullptr}, {"server", {{"participant-guid", 5}}}, {"warnings", json::array()}},
+                {"fw-version", nullptr}, {"server", {{"participant-guid", 5}}}, {"warnings", njson::array()}},
                "2026-11-23T13:10:22.000Z");
-  const json list = {{"generation", 9}, {"complete", false}, {"devices", table.devices()}};
+  // Objects the daemon owns, taken whole or not at all: a key unknown inside one, a
+  // required key missing, a count below zero; and a shared camera's host, read whole.
+  table.upsert("dds-9-realsense.D555_3",
+               {{"source", "remote-usb"}, {"sources", njson::array({"remote-usb", "bluetooth"})},
+                {"server", {{"participant-guid", "g"}, {"colour", "red"}}}, {"usb", {{"bus", 1}, {"port-path", "1-2"}}},
+                {"in-use", {{"clients", -1}, {"streaming", njson::array()}}},
+                {"host", {{"name", "cell-4"}, {"addresses", njson::array({"192.0.2.9"})}}}},
+               "2026-11-23T13:10:23.000Z");
+  table.upsert("dds-9-realsense.D555_4",
+               {{"source", "dds"}, {"in-use", {{"clients", 2}, {"streaming", njson::array({"Depth", "Color"})}}},
+                {"host", {{"name", "cell-4"}}}, {"warnings", njson::array({"w1", 2})}},
+               "2026-11-23T13:10:24.000Z");
+  const njson list = {{"generation", 9}, {"complete", false}, {"devices", table.devices()}};
   for (const std::string& text : {list.dump(), list.dump(2)}) {
     std::string body = text;
     DeviceList out;
@@ -339,10 +379,11 @@ TEST(DeviceList, ReadsTheDaemonsListAsNlohmannReadsEachDevice) {
     EXPECT_EQ(out.generation, 9u);
     EXPECT_FALSE(out.complete);
     const auto slices = detail::array_member_elements(text, "devices");
-    ASSERT_EQ(out.devices.size(), 4u);
+    ASSERT_EQ(out.devices.size(), 6u);
     for (std::size_t i = 0; i < out.devices.size(); ++i) {
       SCOPED_TRACE(i);
-      expect_same_device(out.devices[i], detail::device_from_json(list["devices"][i], std::string(slices[i])));
+      expect_read_as_the_daemon_reads(out.devices[i], list["devices"][i]);
+      EXPECT_EQ(out.devices[i].json, slices[i]);
     }
     const auto by_id = [&](const std::string& id) {
       for (const auto& d : out.devices)
@@ -357,7 +398,7 @@ TEST(DeviceList, ReadsTheDaemonsListAsNlohmannReadsEachDevice) {
   }
 }
 
-TEST(DeviceList, RefusesWhatNlohmannRefuses) {
+TEST(DeviceList, RefusesWhatIsNotJson) {
   const std::string bad_utf8[] = {"\xff", "\xc0\xaf", "\xed\xa0\x80", "caf\xc3"};  // stray, overlong, surrogate, cut
   std::vector<std::string> bodies = {
       "", "{", R"({"devices":[]} x)", R"({"devices":[1e400]})", R"({"devices":["\ud800"]})",
@@ -366,7 +407,7 @@ TEST(DeviceList, RefusesWhatNlohmannRefuses) {
   for (const auto& b : bad_utf8) bodies.push_back(R"({"devices":[{"id":"x","name":")" + b + R"("}]})");
   for (const auto& text : bodies) {
     SCOPED_TRACE(text);
-    EXPECT_TRUE(json::parse(text, nullptr, false).is_discarded());  // nlohmann's verdict
+    EXPECT_TRUE(njson::parse(text, nullptr, false).is_discarded());  // nlohmann's verdict
     std::string body = text;
     DeviceList list;
     const auto problem = detail::read_device_list(body, "/v1/devices", list);
@@ -390,14 +431,16 @@ TEST(DeviceList, RefusesWhatNlohmannRefuses) {
   }
   std::string no_id = R"({"devices":[{"name":"x"}]})";
   EXPECT_THROW(detail::read_device_list(no_id, "/v1/devices", out), Error);
-  // Exponents of more than three digits (which the daemon never writes) are read by
-  // nlohmann, never by bookworm's RapidJSON (CVE-2024-38517): as nlohmann reads them
-  // (0), and refused where nlohmann refuses them.
-  std::string tiny = R"({"devices":[{"id":"x","n":[0.00001e-2147483647,1.5e-2147483648,1e-99999]}]})";
-  ASSERT_EQ(detail::read_device_list(tiny, "/v1/devices", out), std::nullopt);
-  EXPECT_EQ(json::parse(out.devices.at(0).field("n")), json::parse("[0.0,0.0,0.0]"));
-  std::string huge = R"({"devices":[{"id":"x","n":1e2147483647}]})";
-  EXPECT_EQ(detail::read_device_list(huge, "/v1/devices", out), "GET /v1/devices did not return a JSON object");
+  // Exponents of more than three digits, which the daemon never writes (it writes a
+  // double the shortest way), are refused before bookworm's RapidJSON meets them
+  // (CVE-2024-38517): tiny ones nlohmann would read as 0, and huge ones alike.
+  for (std::string text : {R"({"devices":[{"id":"x","n":[0.00001e-2147483647,1.5e-2147483648,1e-99999]}]})",
+                           R"({"devices":[{"id":"x","n":1e2147483647}]})", R"({"devices":[{"id":"x","n":1E+1000}]})"})
+    EXPECT_EQ(detail::read_device_list(text, "/v1/devices", out), "GET /v1/devices did not return a JSON object");
+  // Three digits are the daemon's own (1e-300 is a double it may write).
+  std::string small = R"({"devices":[{"id":"x","n":[1e-300,2.5E+100]}]})";
+  ASSERT_EQ(detail::read_device_list(small, "/v1/devices", out), std::nullopt);
+  EXPECT_EQ(njson::parse(out.devices.at(0).field("n")), njson::parse("[1e-300,2.5e100]"));
   // Nesting: as deep as a device-info may be (the daemon cuts them at 16 levels) is
   // read; far deeper is refused, not recursed into (the stack would run out).
   std::string nested = R"({"devices":[{"id":"x","nested":)" + std::string(16, '[') + std::string(16, ']') + "}]}";
@@ -415,7 +458,7 @@ TEST(Device, UsbAndMergedDevicesAsTheDaemonWritesThem) {
   rsd::DeviceTable table;
   table.upsert(rsd::usb::sighting_id(s), rsd::usb::to_json(s, *rsd::usb::find_product(s.vid, s.pid)),
                "2026-11-23T13:10:20.123Z");
-  auto d = detail::device_from_json(table.devices().at(0));
+  auto d = detail::device_from_json(client_doc(table.devices().at(0)));
   EXPECT_EQ(d.source, "usb");
   ASSERT_TRUE(d.usb);
   EXPECT_EQ(d.usb->bus, 2);
@@ -428,9 +471,9 @@ TEST(Device, UsbAndMergedDevicesAsTheDaemonWritesThem) {
   // The same camera over DDS: one entry, seen both ways, the warning kept.
   table.upsert("dds-0-realsense.D435_123",
                {{"source", "dds"}, {"serial", "123"}, {"domain", 0}, {"topic-root", "realsense/D435_123"},
-                {"name", "Intel RealSense D435"}, {"recovery", false}, {"server", json::object()}},
+                {"name", "Intel RealSense D435"}, {"recovery", false}, {"server", njson::object()}},
                "2026-11-23T13:10:21.000Z");
-  auto merged = detail::device_from_json(table.devices().at(0));
+  auto merged = detail::device_from_json(client_doc(table.devices().at(0)));
   EXPECT_EQ(merged.source, "dds");
   EXPECT_EQ(merged.sources, (std::vector<std::string>{"dds", "usb"}));
   EXPECT_EQ(merged.domain, 0);
@@ -450,36 +493,36 @@ TEST(Device, RejectsWhatIsNotADevice) {
 }
 
 TEST(Device, SameDeviceIgnoresOnlyTheTimesSeen) {
-  auto a = json::parse(R"({"id":"x","name":"n","last-seen":"1","first-seen":"1"})");
-  auto b = json::parse(R"({"id":"x","name":"n","last-seen":"2","first-seen":"1"})");
-  auto c = json::parse(R"({"id":"x","name":"m","last-seen":"2","first-seen":"1"})");
+  const std::string a = R"({"id":"x","name":"n","last-seen":"1","first-seen":"1"})";
+  const std::string b = R"({"id":"x","name":"n","last-seen":"2","first-seen":"1"})";
+  const std::string c = R"({"id":"x","name":"m","last-seen":"2","first-seen":"1"})";
   // A restarted daemon sets first-seen anew for a camera that never went away.
-  auto d = json::parse(R"({"id":"x","name":"n","last-seen":"1","first-seen":"9"})");
+  const std::string d = R"({"id":"x","name":"n","last-seen":"1","first-seen":"9"})";
   EXPECT_TRUE(detail::same_device(a, b));
   EXPECT_FALSE(detail::same_device(a, c));
   EXPECT_TRUE(detail::same_device(a, d));
 }
 
 TEST(Device, CompleteUnlessTheDocumentSaysOtherwise) {
-  EXPECT_TRUE(detail::reports_complete(json::parse(R"({"devices":[]})")));  // an older daemon
-  EXPECT_TRUE(detail::reports_complete(json::parse(R"({"complete":true})")));
-  EXPECT_FALSE(detail::reports_complete(json::parse(R"({"complete":false})")));
+  EXPECT_TRUE(detail::reports_complete(json::parse_or_null(R"({"devices":[]})")));  // an older daemon
+  EXPECT_TRUE(detail::reports_complete(json::parse_or_null(R"({"complete":true})")));
+  EXPECT_FALSE(detail::reports_complete(json::parse_or_null(R"({"complete":false})")));
   // The daemon's own documents (the shared model writes them), still settling.
   rsd::model::Health health;
   health.complete = false;
-  EXPECT_FALSE(detail::health_from_json(rsd::model::to_json(health)).complete);
+  EXPECT_FALSE(detail::health_from_json(client_doc(rsd::model::to_json(health))).complete);
   rsd::model::DomainStatus domain;
   domain.domain = 1;
   domain.state = rsd::model::DomainState::settling;
-  EXPECT_FALSE(detail::domain_from_json(rsd::model::to_json(domain)).complete);
+  EXPECT_FALSE(detail::domain_from_json(client_doc(rsd::model::to_json(domain))).complete);
   domain.complete = true;
   domain.state = rsd::model::DomainState::running;
-  const auto running = detail::domain_from_json(rsd::model::to_json(domain));
+  const auto running = detail::domain_from_json(client_doc(rsd::model::to_json(domain)));
   EXPECT_TRUE(running.complete);
   EXPECT_EQ(running.state, "running");
   // What is not the daemon's document is named, not half read.
-  EXPECT_THROW(detail::domain_from_json(json::parse(R"({"domain":1,"complete":false})")), Error);
-  EXPECT_THROW(detail::health_from_json(json::parse(R"({"status":"ok"})")), Error);
+  EXPECT_THROW(detail::domain_from_json(client_doc(njson::parse(R"({"domain":1,"complete":false})"))), Error);
+  EXPECT_THROW(detail::health_from_json(client_doc(njson::parse(R"({"status":"ok"})"))), Error);
 }
 
 TEST(Filter, BuildsTheQueryWithEncoding) {
@@ -866,7 +909,7 @@ class Harness {
       throw std::runtime_error("api_harness: '" + line + "' answered '" + answer + "'");
     return std::stoull(answer.substr(3));
   }
-  std::uint64_t upsert(const std::string& id, const json& doc) { return command("upsert " + id + " " + doc.dump()); }
+  std::uint64_t upsert(const std::string& id, const njson& doc) { return command("upsert " + id + " " + doc.dump()); }
   std::uint64_t remove(const std::string& id) { return command("remove " + id); }
 
   // This harness stops and another starts on the same socket: a daemon restart.
@@ -1015,8 +1058,8 @@ class Harness {
 };
 
 // A camera as a source gives it to the table (which adds id, first-seen, last-seen).
-json camera(const json& extra = json::object()) {
-  json doc = {{"source", "dds"}, {"domain", 7}, {"name", "Intel RealSense D455"}};
+njson camera(const njson& extra = njson::object()) {
+  njson doc = {{"source", "dds"}, {"domain", 7}, {"name", "Intel RealSense D455"}};
   doc.update(extra);
   return doc;
 }
@@ -1068,7 +1111,7 @@ TEST(Client, TellsAGoneCameraFromOneNeverSeen) {
   EXPECT_NE(gone_words.find("lease-expired"), std::string::npos) << gone_words;  // says why
   EXPECT_EQ(status_of("111").first, 410);  // by its serial too
   EXPECT_EQ(status_of("never-seen").first, 404);
-  const json history = json::parse(c.device_history("a"));
+  const njson history = njson::parse(c.device_history("a"));
   EXPECT_EQ(history["state"], "gone");
   EXPECT_EQ(history["gone"]["reason"], "lease-expired");
   EXPECT_EQ(history["removals"]["lease-expired"], 1);

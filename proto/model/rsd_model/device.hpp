@@ -8,6 +8,8 @@
 // it is stays in `extra`, untouched, so reading a document never loses or alters it.
 #pragma once
 
+#include "rsd_model/spelling.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <cstddef>
@@ -18,49 +20,7 @@
 
 namespace rsd::model {
 
-// Every key the daemon writes at the top level of a device, and inside "server" and
-// "usb". Nothing else in the daemon or the client spells them.
-namespace key {
-inline constexpr const char* id = "id";
-inline constexpr const char* source = "source";
-inline constexpr const char* sources = "sources";
-inline constexpr const char* domain = "domain";
-inline constexpr const char* topic_root = "topic-root";
-inline constexpr const char* name = "name";
-inline constexpr const char* serial = "serial";
-inline constexpr const char* product_line = "product-line";
-inline constexpr const char* product_id = "product-id";
-inline constexpr const char* fw_version = "fw-version";
-inline constexpr const char* recovery = "recovery";
-inline constexpr const char* first_seen = "first-seen";
-inline constexpr const char* last_seen = "last-seen";
-inline constexpr const char* server = "server";
-inline constexpr const char* usb = "usb";
-inline constexpr const char* host = "host";
-inline constexpr const char* warnings = "warnings";
-inline constexpr const char* merged_into = "merged-into";
-// A DDS camera's clients, in short (written only while it has one; rsd_model/clients.hpp).
-inline constexpr const char* in_use = "in-use";
-// A DDS camera whose server's lease ran out, kept listed for the removal grace.
-inline constexpr const char* unresponsive = "unresponsive";
-// A DDS camera whose notification set was (not) received whole when the daemon
-// subscribed, and how far it got when not (written once the daemon knows).
-inline constexpr const char* ready = "ready";
-inline constexpr const char* ready_stage = "ready-stage";
-// Inside "usb": the camera's device files on this host (what `rs-discover clients`
-// looks for among the processes' open files).
-inline constexpr const char* device_nodes = "device-nodes";
-}  // namespace key
 
-// remote_usb ("remote-usb"): a camera plugged into another host's USB, which that
-// host's daemon shares over DDS (docs/sharing.md). Never merged with a local sighting.
-enum class Source { dds, usb, remote_usb };
-const char* to_string(Source source);
-std::optional<Source> parse_source(std::string_view text);  // exact: "dds", "usb", "remote-usb"
-
-// What a user is told first about a camera: recovery firmware wins over a warning.
-enum class DeviceState { ok, warning, recovery };
-const char* to_string(DeviceState state);
 
 // The realdds server that announced a DDS device (the latest one, when several do).
 // Members are optional because a device-info that arrived without a known writer

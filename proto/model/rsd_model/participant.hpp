@@ -7,6 +7,8 @@
 
 #include "rsd_model/status.hpp"  // MalformedDocument
 
+#include "rsd_model/spelling.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
@@ -17,40 +19,10 @@
 
 namespace rsd::model {
 
-// The DDS implementation, from the first two bytes of the GUID (the RTPS vendor
-// id; measured: realdds on Fast DDS 01.0f, Cyclone 0.10 and 0.11 01.10).
-enum class Vendor { fast_dds, cyclone_dds, rti_connext, opendds, other };
-
-constexpr std::string_view to_string(Vendor v) {
-  switch (v) {
-    case Vendor::fast_dds: return "fast-dds";
-    case Vendor::cyclone_dds: return "cyclone-dds";
-    case Vendor::rti_connext: return "rti-connext";
-    case Vendor::opendds: return "opendds";
-    case Vendor::other: return "other";
-  }
-  return "other";  // not reached
-}
-std::optional<Vendor> parse_vendor(std::string_view name);
 // "01.0f" from a GUID as the API writes it ("010f78fd.3e2482db...."); "" if it is not one.
 std::string vendor_id_of(std::string_view guid);
 Vendor vendor_of(std::string_view vendor_id);
 
-// alive: its lease holds. gone: it said goodbye, or its lease ran out (a crash,
-// a cut cable, a firewall that let its first packets through): Cyclone DDS
-// disposes the participant alike in both cases (measured with 0.10.2: a realdds
-// server killed with SIGKILL and one deleted by its owner look the same), so the
-// API does not pretend to tell them apart.
-enum class ParticipantState { alive, gone };
-
-constexpr std::string_view to_string(ParticipantState s) {
-  switch (s) {
-    case ParticipantState::alive: return "alive";
-    case ParticipantState::gone: return "gone";
-  }
-  return "gone";  // not reached
-}
-std::optional<ParticipantState> parse_participant_state(std::string_view name);
 
 struct Participant {
   int domain = 0;

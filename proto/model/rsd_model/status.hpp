@@ -7,6 +7,8 @@
 #include "rsd_model/expected.hpp"
 #include "rsd_model/names.hpp"
 
+#include "rsd_model/spelling.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
@@ -19,26 +21,6 @@
 
 namespace rsd::model {
 
-// A domain's life: settling (participant made, reader not yet created) ->
-// running; rebuilding while its participant is made anew; failed when it cannot
-// be joined; stopped once left.
-enum class DomainState { settling, running, rebuilding, failed, stopped };
-
-constexpr std::string_view to_string(DomainState state) {
-  switch (state) {
-    case DomainState::settling: return "settling";
-    case DomainState::running: return "running";
-    case DomainState::rebuilding: return "rebuilding";
-    case DomainState::failed: return "failed";
-    case DomainState::stopped: return "stopped";
-  }
-  return "stopped";  // not reached: every enumerator is named above
-}
-
-constexpr std::optional<DomainState> parse_domain_state(std::string_view name) {
-  return parse_name(name, {DomainState::settling, DomainState::running, DomainState::rebuilding,
-                           DomainState::failed, DomainState::stopped});
-}
 
 // A network interface a domain is joined on, with its IPv4 addresses.
 struct InterfaceStatus {
