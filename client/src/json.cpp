@@ -6,6 +6,7 @@
 #include <rapidjson/stringbuffer.h>
 #include <rapidjson/writer.h>
 
+#include <algorithm>
 #include <cstring>
 
 namespace rsdiscovery::json {
@@ -70,17 +71,35 @@ class BoundedBuilder {
 // nine digits to the count of a fraction's digits in an int, which a fraction of some
 // two billion digits underflows (CVE-2024-38517; trixie's 7.4 is patched). Nothing the
 // daemon writes has an exponent of more than three digits (it writes doubles the
-// shortest way), so a text with a longer one anywhere, inside a string too (this is
-// only a hint), is refused before RapidJSON meets it.
+// shortest way), so a text with a number that has one is refused before RapidJSON
+// meets it. Inside strings such letters and digits are common (GUIDs are hex).
 bool has_long_exponent(std::string_view text) {
   const auto digit = [&](std::size_t j) { return j < text.size() && text[j] >= '0' && text[j] <= '9'; };
-  // memchr to each letter: a loop over every byte was a seventh of a cold list.
+  // Four digits after an 'e' or 'E' and an optional sign; memchr to each letter (a
+  // loop over every byte was a seventh of a cold list's instructions).
+  std::vector<std::size_t> suspects;
   for (const char letter : {'e', 'E'}) {
     for (auto i = text.find(letter); i != std::string_view::npos; i = text.find(letter, i + 1)) {
       std::size_t j = i + 1;
       if (j < text.size() && (text[j] == '+' || text[j] == '-')) ++j;
-      if (digit(j) && digit(j + 1) && digit(j + 2) && digit(j + 3)) return true;
+      if (digit(j) && digit(j + 1) && digit(j + 2) && digit(j + 3)) suspects.push_back(i);
     }
+  }
+  if (suspects.empty()) return false;
+  std::sort(suspects.begin(), suspects.end());
+  // Which suspects stand in a string: the quotes up to each, from quote to quote.
+  std::size_t scanned = 0;
+  bool in_string = false;
+  for (const std::size_t at : suspects) {
+    while (const void* q = std::memchr(text.data() + scanned, '"', at - scanned)) {
+      const auto i = static_cast<std::size_t>(static_cast<const char*>(q) - text.data());
+      std::size_t slashes = 0;
+      while (in_string && i > slashes && text[i - 1 - slashes] == '\\') ++slashes;
+      if (slashes % 2 == 0) in_string = !in_string;
+      scanned = i + 1;
+    }
+    scanned = at;
+    if (!in_string) return true;
   }
   return false;
 }

@@ -437,6 +437,12 @@ TEST(DeviceList, RefusesWhatIsNotJson) {
   for (std::string text : {R"({"devices":[{"id":"x","n":[0.00001e-2147483647,1.5e-2147483648,1e-99999]}]})",
                            R"({"devices":[{"id":"x","n":1e2147483647}]})", R"({"devices":[{"id":"x","n":1E+1000}]})"})
     EXPECT_EQ(detail::read_device_list(text, "/v1/devices", out), "GET /v1/devices did not return a JSON object");
+  // In a string such letters and digits are no number: GUIDs are hex (0110e123.4...).
+  std::string guid = R"({"devices":[{"id":"x","g":"0110e1234.5","q":"\"1E+5678\\","n":2e10}]})";
+  ASSERT_EQ(detail::read_device_list(guid, "/v1/devices", out), std::nullopt);
+  EXPECT_EQ(out.devices.at(0).field("g"), "\"0110e1234.5\"");
+  std::string after = R"({"devices":[{"id":"x","q":"a\\\"","n":1e-2147483647}]})";
+  EXPECT_EQ(detail::read_device_list(after, "/v1/devices", out), "GET /v1/devices did not return a JSON object");
   // Three digits are the daemon's own (1e-300 is a double it may write).
   std::string small = R"({"devices":[{"id":"x","n":[1e-300,2.5E+100]}]})";
   ASSERT_EQ(detail::read_device_list(small, "/v1/devices", out), std::nullopt);
