@@ -169,7 +169,9 @@ void read_peer(const Strict& d, Peer& p) {
   namespace key = model::peer_key;
   p.guid = d.text(key::guid);
   p.name = d.text(key::name);
-  p.vendor = d.name_of(key::vendor, model::parse_vendor);
+  // A vendor this client does not know yet (a newer daemon's) reads as "other".
+  const auto vendor = d.text(key::vendor);
+  p.vendor = model::parse_vendor(vendor) ? vendor : std::string(model::to_string(model::Vendor::other));
   p.addresses = d.texts(key::addresses);
   p.host = d.text_or(key::host);
   p.process = d.text_or(key::process);

@@ -12,6 +12,19 @@
 namespace rsdiscovery::json {
 namespace {
 
+// RapidJSON 1.1 takes the escape of a lone low surrogate ("\udc00") and writes the
+// UTF-8 form of the surrogate itself, which is not UTF-8 (and what RapidJSON then
+// writes out it refuses to read back): nlohmann refuses such text, and so does this.
+// Such a form starts 0xED 0xA0-0xBF; raw in the text, validation already refuses it.
+bool has_surrogate(const char* str, std::size_t length) {
+  for (const void* p = std::memchr(str, '\xED', length); p;) {
+    const auto i = static_cast<std::size_t>(static_cast<const char*>(p) - str);
+    if (i + 1 < length && static_cast<unsigned char>(str[i + 1]) >= 0xA0) return true;
+    p = i + 1 < length ? std::memchr(str + i + 1, '\xED', length - i - 1) : nullptr;
+  }
+  return false;
+}
+
 // RapidJSON's tree builder (the document's own handler) with a bound on nesting; on
 // the way it notes where each object of one top-level array starts and ends.
 template <class Stream>
@@ -30,8 +43,11 @@ class BoundedBuilder {
   bool Uint64(std::uint64_t u) { return doc_.Uint64(u); }
   bool Double(double d) { return doc_.Double(d); }
   bool RawNumber(const char* str, rapidjson::SizeType length, bool copy) { return doc_.RawNumber(str, length, copy); }
-  bool String(const char* str, rapidjson::SizeType length, bool copy) { return doc_.String(str, length, copy); }
+  bool String(const char* str, rapidjson::SizeType length, bool copy) {
+    return !has_surrogate(str, length) && doc_.String(str, length, copy);
+  }
   bool Key(const char* str, rapidjson::SizeType length, bool copy) {
+    if (has_surrogate(str, length)) return false;
     if (depth_ == 1) in_spans_ = spans_ && std::string_view(str, length) == spans_of_;
     return doc_.Key(str, length, copy);
   }

@@ -1,3 +1,4 @@
+// A camera's description read (the daemon's fetch gives it) and written (rsd_model/description.hpp).
 #include "rsd_model/description.hpp"
 
 namespace rsd::model {

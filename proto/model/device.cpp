@@ -1,3 +1,4 @@
+// The device document: its one writer, and the daemon's reader (rsd_model/device.hpp).
 #include "rsd_model/device.hpp"
 
 #include <cmath>

@@ -1,7 +1,7 @@
-// Expected cameras: parsing the configuration's form and the API's document (expected.hpp).
+// Expected cameras: parsing the configuration's form, and writing the API's document (expected.hpp).
 #include "rsd_model/expected.hpp"
 
-#include "read_json.hpp"
+#include "rsd_model/spelling.hpp"
 
 #include <algorithm>
 
@@ -87,27 +87,6 @@ nlohmann::json to_json(const ExpectedStatus& s) {
   return out;
 }
 
-std::vector<ExpectedStatus> statuses_from_json(const nlohmann::json& doc, const char* which) {
-  using namespace read_json;
-  const auto& list = member(doc, which, "an expected list");
-  if (!list.is_array()) throw MalformedDocument(std::string("an expected list's \"") + which + "\" is not a list");
-  std::vector<ExpectedStatus> out;
-  for (const auto& e : list) {
-    constexpr const char* what = "an expected camera";
-    want_object(e, what);
-    ExpectedStatus s;
-    if (e.contains(expected_key::name)) s.camera.name = text(e, expected_key::name, what);
-    if (e.contains(expected_key::serial)) s.camera.serial = text(e, expected_key::serial, what);
-    if (e.contains(expected_key::topic_root)) s.camera.topic_root = text(e, expected_key::topic_root, what);
-    if (s.camera.key().empty()) throw MalformedDocument("an expected camera has neither a serial nor a topic-root");
-    if (e.contains(expected_key::id)) s.id = text(e, expected_key::id, what);
-    if (e.contains(expected_key::last_seen)) s.last_seen = text(e, expected_key::last_seen, what);
-    if (e.contains(expected_key::reason)) s.reason = text(e, expected_key::reason, what);
-    out.push_back(std::move(s));
-  }
-  return out;
-}
-
 }  // namespace
 
 nlohmann::json to_json(const ExpectedReport& report) {
@@ -118,15 +97,6 @@ nlohmann::json to_json(const ExpectedReport& report) {
           {expected_key::expected, report.expected()},
           {expected_key::present, std::move(present)},
           {expected_key::missing, std::move(missing)}};
-}
-
-ExpectedReport expected_report_from_json(const nlohmann::json& doc) {
-  read_json::want_object(doc, "an expected list");
-  ExpectedReport out;
-  out.complete = read_json::flag(doc, expected_key::complete, "an expected list");
-  out.present = statuses_from_json(doc, expected_key::present);
-  out.missing = statuses_from_json(doc, expected_key::missing);
-  return out;
 }
 
 }  // namespace rsd::model

@@ -1,7 +1,7 @@
+// A participant entry written, and the vendor read from a GUID (rsd_model/participant.hpp).
 #include "rsd_model/participant.hpp"
 
 #include "peer_json.hpp"
-#include "read_json.hpp"
 
 namespace rsd::model {
 
@@ -53,34 +53,6 @@ nlohmann::json to_json(const Participant& p) {
   peer_json::write(doc, p);
   if (p.lease_seconds) doc[participant_key::lease_seconds] = *p.lease_seconds;
   return doc;
-}
-
-Participant participant_from_json(const nlohmann::json& doc) {
-  using namespace read_json;
-  want_object(doc, kWhat);
-  Participant p;
-  const auto& domain = member(doc, participant_key::domain, kWhat);
-  if (!domain.is_number_integer() || domain.get<std::int64_t>() < 0 || domain.get<std::int64_t>() > 232)
-    throw MalformedDocument("a participant entry's \"domain\" is not a domain id");
-  p.domain = domain.get<int>();
-  peer_json::read(doc, p, kWhat);
-  if (auto it = doc.find(participant_key::lease_seconds); it != doc.end()) {
-    if (!it->is_number()) throw MalformedDocument("a participant entry's \"lease-seconds\" is not a number");
-    p.lease_seconds = it->get<double>();
-  }
-  const auto state = text(doc, participant_key::state, kWhat);
-  const auto parsed = parse_participant_state(state);
-  if (!parsed) throw MalformedDocument("a participant entry has an unknown state '" + state + "'");
-  p.state = *parsed;
-  p.first_seen = text(doc, participant_key::first_seen, kWhat);
-  p.last_seen = text(doc, participant_key::last_seen, kWhat);
-  p.device_info_writers = count(doc, participant_key::device_info_writers, kWhat);
-  p.devices = count(doc, participant_key::devices, kWhat);
-  p.silent_writers = count(doc, participant_key::silent_writers, kWhat);
-  p.never_announced = flag(doc, participant_key::never_announced, kWhat);
-  p.topic_roots = texts(doc, participant_key::topic_roots, kWhat);
-  p.endpoints = count(doc, participant_key::endpoints, kWhat);
-  return p;
 }
 
 }  // namespace rsd::model

@@ -4,6 +4,9 @@
 // stdin); and, against a raw stand-in on a Unix socket, the answers the real server
 // never gives (malformed replies, another API version, oversized answers).
 #include "internal.hpp"
+#include "rsd_model/clients.hpp"
+#include "rsd_model/device.hpp"
+#include "rsd_model/participant.hpp"
 #include "rsd_model/status.hpp"
 #include "table/device_table.hpp"
 #include "usb/usb_device.hpp"
@@ -402,6 +405,7 @@ TEST(DeviceList, RefusesWhatIsNotJson) {
   const std::string bad_utf8[] = {"\xff", "\xc0\xaf", "\xed\xa0\x80", "caf\xc3"};  // stray, overlong, surrogate, cut
   std::vector<std::string> bodies = {
       "", "{", R"({"devices":[]} x)", R"({"devices":[1e400]})", R"({"devices":["\ud800"]})",
+      R"({"devices":["\udc00"]})", R"({"devices":[{"\ud83d\ude00\ude00":1}]})",
       "{\"devices\":[\"a\x01\"]}", R"({"devices":[{"id":"a",}]})", R"({"devices":[NaN]})", R"({'devices':[]})",
       R"({"devices":[01]})"};
   for (const auto& b : bad_utf8) bodies.push_back(R"({"devices":[{"id":"x","name":")" + b + R"("}]})");
@@ -529,6 +533,160 @@ TEST(Device, CompleteUnlessTheDocumentSaysOtherwise) {
   // What is not the daemon's document is named, not half read.
   EXPECT_THROW(detail::domain_from_json(client_doc(njson::parse(R"({"domain":1,"complete":false})"))), Error);
   EXPECT_THROW(detail::health_from_json(client_doc(njson::parse(R"({"status":"ok"})"))), Error);
+}
+
+// ---- the status documents, as the daemon writes them (rsd_model's to_json) -------------
+
+// What the client cannot read is a malformed reply, never half a value.
+template <class Read>
+void expect_malformed(Read read, const njson& doc) {
+  try {
+    read(client_doc(doc));
+    ADD_FAILURE() << doc.dump();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ErrorCode::malformed_reply) << doc.dump();
+  }
+}
+
+TEST(Documents, DomainEntryAsTheDaemonWritesIt) {
+  rsd::model::DomainStatus s;
+  s.domain = 7;
+  s.state = rsd::model::DomainState::rebuilding;
+  s.participant_guid = "01107948.66908ead.429992d1.000001c1";
+  s.devices = 3;
+  s.accepted = 12;
+  s.rejected = {{"malformed", 2}};
+  s.interfaces = {{"eth0", {"192.0.2.2"}}};
+  s.complete = true;
+  const auto doc = rsd::model::to_json(s);
+  const auto read = detail::domain_from_json(client_doc(doc));
+  EXPECT_EQ(read.domain, 7);
+  EXPECT_EQ(read.state, "rebuilding");
+  EXPECT_EQ(read.participant_guid, s.participant_guid);
+  EXPECT_EQ(read.devices, 3u);
+  EXPECT_EQ(read.accepted, 12u);
+  EXPECT_EQ(read.rejected, (std::map<std::string, std::uint64_t>{{"malformed", 2}}));
+  EXPECT_TRUE(read.complete);
+  EXPECT_EQ(njson::parse(read.json), doc);
+  for (const char* bad : {R"([])", R"({"domain": 1})", R"({"domain": 300, "state": "running"})",
+                          R"({"domain": 1, "state": "joining"})"})
+    expect_malformed(detail::domain_from_json, njson::parse(bad));
+  auto bad = doc;
+  bad["rejected"]["malformed"] = -2;
+  expect_malformed(detail::domain_from_json, bad);
+}
+
+TEST(Documents, HealthAsTheDaemonWritesIt) {
+  rsd::model::Health h;
+  h.version = "0.1.0";
+  h.devices = 2;
+  h.complete = true;
+  h.http = rsd::model::HttpHealth{"127.0.0.1:8036", "127.0.0.1:8035", "systemd", false};
+  const auto doc = rsd::model::to_json(h);
+  const auto read = detail::health_from_json(client_doc(doc));
+  EXPECT_EQ(read.status, "ok");
+  EXPECT_EQ(read.version, "0.1.0");
+  EXPECT_EQ(read.devices, 2u);
+  EXPECT_TRUE(read.complete);
+  EXPECT_EQ(njson::parse(read.json), doc);
+  expect_malformed(detail::health_from_json, njson::parse(R"({"status": "ok", "version": 1})"));
+}
+
+TEST(Documents, ParticipantAsTheDaemonWritesIt) {
+  rsd::model::Participant p;
+  p.domain = 3;
+  p.guid = "010f78fd.3e2482db.00000000.000001c1";
+  p.name = "camera";
+  p.vendor_id = rsd::model::vendor_id_of(p.guid);
+  p.vendor = rsd::model::vendor_of(p.vendor_id);
+  p.addresses = {"192.0.2.2"};
+  p.first_seen = "2026-11-24T06:50:45.206Z";
+  p.last_seen = "2026-11-24T06:50:46.000Z";
+  p.device_info_writers = 2;
+  p.devices = 1;
+  p.topic_roots = {"realsense/D555_1"};
+  p.endpoints = 40;
+  auto read = detail::participant_from_json(client_doc(rsd::model::to_json(p)));
+  EXPECT_EQ(read.domain, 3);
+  EXPECT_EQ(read.guid, p.guid);
+  EXPECT_EQ(read.name, "camera");
+  EXPECT_EQ(read.vendor, "fast-dds");
+  EXPECT_EQ(read.addresses, p.addresses);
+  EXPECT_EQ(read.host, "");  // not said: a realdds (Fast DDS) peer
+  EXPECT_FALSE(read.lease_seconds);
+  EXPECT_EQ(read.state, "alive");
+  EXPECT_EQ(read.first_seen, p.first_seen);
+  EXPECT_EQ(read.last_seen, p.last_seen);
+  EXPECT_EQ(read.device_info_writers, 2u);
+  EXPECT_EQ(read.devices, 1u);
+  EXPECT_FALSE(read.never_announced);
+  EXPECT_EQ(read.topic_roots, p.topic_roots);
+  EXPECT_EQ(read.endpoints, 40u);
+  p.host = "vm";
+  p.process = "python";
+  p.pid = 12;
+  p.lease_seconds = 10.0;
+  p.state = rsd::model::ParticipantState::gone;
+  read = detail::participant_from_json(client_doc(rsd::model::to_json(p)));
+  EXPECT_EQ(read.host, "vm");
+  EXPECT_EQ(read.process, "python");
+  EXPECT_EQ(read.lease_seconds, 10.0);
+  EXPECT_EQ(read.state, "gone");
+  // A vendor a newer daemon knows and this client does not reads as "other".
+  auto doc = rsd::model::to_json(p);
+  doc["vendor"] = "a-newer-one";
+  EXPECT_EQ(detail::participant_from_json(client_doc(doc)).vendor, "other");
+  for (const char* key : {"guid", "state", "addresses", "never-announced"}) {
+    auto bad = rsd::model::to_json(p);
+    bad[key] = 5;
+    expect_malformed(detail::participant_from_json, bad);
+  }
+  auto bad = rsd::model::to_json(p);
+  bad["state"] = "sleeping";
+  expect_malformed(detail::participant_from_json, bad);
+}
+
+TEST(Documents, CameraClientsAsTheDaemonWritesThem) {
+  rsd::model::DeviceClients c;
+  c.clients.push_back({"g", "app", rsd::model::Vendor::cyclone_dds, "01.10", {"192.0.2.1"}, "pc", "python", 42, "T",
+                       {"Depth"}, {"/robot/viewer"}});
+  c.streams = {{"Depth", 1}};
+  const auto doc = rsd::model::to_json(c);
+  const auto read = detail::clients_from_json(client_doc(doc));
+  ASSERT_EQ(read.clients.size(), 1u);
+  EXPECT_EQ(read.clients[0].guid, "g");
+  EXPECT_EQ(read.clients[0].name, "app");
+  EXPECT_EQ(read.clients[0].vendor, "cyclone-dds");
+  EXPECT_EQ(read.clients[0].host, "pc");
+  EXPECT_EQ(read.clients[0].process, "python");
+  EXPECT_EQ(read.clients[0].since, "T");
+  EXPECT_EQ(read.clients[0].streams, std::vector<std::string>{"Depth"});
+  EXPECT_EQ(read.clients[0].ros_nodes, std::vector<std::string>{"/robot/viewer"});
+  EXPECT_EQ(read.streams, (std::map<std::string, std::uint64_t>{{"Depth", 1}}));
+  // A daemon from before ROS 2 node names: read as none.
+  auto older = doc;
+  older["clients"][0].erase("ros-nodes");
+  EXPECT_TRUE(detail::clients_from_json(client_doc(older)).clients[0].ros_nodes.empty());
+  expect_malformed(detail::clients_from_json, njson::parse(R"({"clients":[{}],"streams":{}})"));
+  expect_malformed(detail::clients_from_json, njson::parse(R"({"clients":[],"streams":{"Depth":-1}})"));
+}
+
+TEST(Documents, ExpectedCamerasAsTheDaemonWritesThem) {
+  rsd::model::ExpectedReport report;
+  report.complete = true;
+  report.present.push_back({{"front", "1", ""}, "dds-0-a", std::nullopt, std::nullopt});
+  report.missing.push_back({{"wrist", "", "realsense/D555_2"}, std::nullopt, "2026-11-24T06:50:46.000Z", "stopping"});
+  const auto read = detail::expected_from_json(client_doc(rsd::model::to_json(report)));
+  EXPECT_TRUE(read.complete);
+  ASSERT_EQ(read.present.size(), 1u);
+  EXPECT_EQ(read.present[0].name, "front");
+  EXPECT_EQ(read.present[0].key(), "1");
+  EXPECT_EQ(read.present[0].id, "dds-0-a");
+  ASSERT_EQ(read.missing.size(), 1u);
+  EXPECT_EQ(read.missing[0].key(), "realsense/D555_2");
+  EXPECT_EQ(read.missing[0].last_seen, "2026-11-24T06:50:46.000Z");
+  EXPECT_EQ(read.missing[0].reason, "stopping");
+  expect_malformed(detail::expected_from_json, njson::parse(R"({"complete":true,"present":[{"name":"x"}],"missing":[]})"));
 }
 
 TEST(Filter, BuildsTheQueryWithEncoding) {

@@ -76,7 +76,6 @@ TEST(Expected, ListedBySerialOrTopicRoot) {
   EXPECT_EQ(report.missing[0].camera.name, "wrist");
   const auto doc = rsd::model::to_json(report);
   EXPECT_EQ(doc["expected"], 3);
-  const auto back = rsd::model::expected_report_from_json(doc);
-  EXPECT_EQ(back.present.size(), 2u);
-  EXPECT_EQ(back.missing[0].camera, expected[2]);
+  EXPECT_EQ(doc["present"].size(), 2u);
+  EXPECT_EQ(doc["missing"][0], nlohmann::json({{"name", "wrist"}, {"serial", "2"}}));
 }

@@ -59,15 +59,8 @@ TEST(Model, InUseAndClientsRoundTrip) {
                        {"/robot/viewer"}});
   c.streams = {{"Depth", 1}};
   const auto text = to_json(c);
-  EXPECT_EQ(to_json(device_clients_from_json(text)), text);
   EXPECT_EQ(text["clients"][0]["ros-nodes"], json::array({"/robot/viewer"}));
-  // A daemon from before ROS 2 node names: read as none.
-  auto older = text;
-  older["clients"][0].erase("ros-nodes");
-  EXPECT_TRUE(device_clients_from_json(older).clients[0].ros_nodes.empty());
   EXPECT_EQ(summary_of(c), (InUse{1, {"Depth"}}));
-  EXPECT_THROW(device_clients_from_json(json::parse(R"({"clients":[{}],"streams":{}})")), MalformedDocument);
-  EXPECT_THROW(device_clients_from_json(json::parse(R"({"clients":[],"streams":{"Depth":-1}})")), MalformedDocument);
 }
 
 TEST(Model, ReadinessRoundTripsAndAWrongTypeStaysVerbatim) {
@@ -115,7 +108,7 @@ TEST(Model, DefaultSocketRule) {
 
 // ---- status documents -------------------------------------------------------------------
 
-TEST(StatusModel, DomainStatusRoundTripsWithEveryKey) {
+TEST(StatusModel, DomainStatusWritesEveryKey) {
   rsd::model::DomainStatus s;
   s.domain = 7;
   s.state = rsd::model::DomainState::rebuilding;
@@ -142,24 +135,6 @@ TEST(StatusModel, DomainStatusRoundTripsWithEveryKey) {
   EXPECT_EQ(doc["device-info-writers"], 9);
   EXPECT_EQ(doc["writers-refused"]["domain-writer-limit"], 5);
   EXPECT_EQ(doc["endpoints-refused"]["topic-name-too-long"], 3);
-  EXPECT_EQ(rsd::model::to_json(rsd::model::domain_status_from_json(doc)), doc);
-  // A daemon from before the writer caps leaves their keys out: read as none.
-  auto older = doc;
-  older.erase("device-info-writers");
-  older.erase("writers-refused");
-  older.erase("endpoints-refused");  // and from before the endpoint caps
-  for (const char* key : {"interfaces", "network-changes", "network-changed-at"}) older.erase(key);
-  const auto read = rsd::model::domain_status_from_json(older);
-  EXPECT_EQ(read.writers, 0u);
-  EXPECT_TRUE(read.writers_refused.empty());
-  EXPECT_TRUE(read.endpoints_refused.empty());
-  EXPECT_TRUE(read.interfaces.empty());
-  auto bad = doc;
-  bad["interfaces"][0]["addresses"] = "192.0.2.2";
-  EXPECT_THROW(rsd::model::domain_status_from_json(bad), rsd::model::MalformedDocument);
-  bad = doc;
-  bad["endpoints-refused"] = 3;
-  EXPECT_THROW(rsd::model::domain_status_from_json(bad), rsd::model::MalformedDocument);
 }
 
 TEST(StatusModel, EveryDomainStateHasItsName) {
@@ -170,7 +145,7 @@ TEST(StatusModel, EveryDomainStateHasItsName) {
   EXPECT_FALSE(rsd::model::parse_domain_state("joining"));
 }
 
-TEST(StatusModel, HealthRoundTripsAndUsbOffHasNoCount) {
+TEST(StatusModel, HealthWritesUsbOffWithoutACount) {
   rsd::model::Health h;
   h.version = "0.1.0";
   h.devices = 2;
@@ -178,32 +153,19 @@ TEST(StatusModel, HealthRoundTripsAndUsbOffHasNoCount) {
   h.complete = true;
   auto doc = rsd::model::to_json(h);
   EXPECT_EQ(doc["usb"], nlohmann::json({{"state", "off"}}));
-  EXPECT_EQ(rsd::model::to_json(rsd::model::health_from_json(doc)), doc);
   h.usb = {"unavailable", 0, "no /dev/bus/usb"};
   doc = rsd::model::to_json(h);
   EXPECT_EQ(doc["usb"]["error"], "no /dev/bus/usb");
-  EXPECT_EQ(rsd::model::to_json(rsd::model::health_from_json(doc)), doc);
   EXPECT_FALSE(doc.contains("http"));  // as an older daemon's
   h.http = rsd::model::HttpHealth{"127.0.0.1:8036", "127.0.0.1:8035", "systemd", false};
   doc = rsd::model::to_json(h);
   EXPECT_EQ(doc["http"], nlohmann::json({{"listening", "127.0.0.1:8036"}, {"configured", "127.0.0.1:8035"},
                                          {"from", "systemd"}, {"agrees", false}}));
-  EXPECT_EQ(rsd::model::to_json(rsd::model::health_from_json(doc)), doc);
-}
-
-TEST(StatusModel, MalformedDocumentsAreNamed) {
-  for (const char* bad : {R"([])", R"({"domain": 1})", R"({"domain": 300, "state": "running"})",
-                          R"({"domain": 1, "state": "joining"})"}) {
-    EXPECT_THROW(rsd::model::domain_status_from_json(nlohmann::json::parse(bad)), rsd::model::MalformedDocument)
-        << bad;
-  }
-  EXPECT_THROW(rsd::model::health_from_json(nlohmann::json::parse(R"({"status": "ok", "version": 1})")),
-               rsd::model::MalformedDocument);
 }
 
 // ---- the participant document ---------------------------------------------------------
 
-TEST(ParticipantModel, RoundTripsWithAndWithoutTheOptionalKeys) {
+TEST(ParticipantModel, WritesTheOptionalKeysOnlyWhenSaid) {
   Participant p;
   p.domain = 3;
   p.guid = "010f78fd.3e2482db.00000000.000001c1";
@@ -216,7 +178,6 @@ TEST(ParticipantModel, RoundTripsWithAndWithoutTheOptionalKeys) {
   EXPECT_EQ(doc["vendor"], "fast-dds");
   EXPECT_EQ(doc["vendor-id"], "01.0f");
   EXPECT_FALSE(doc.contains("host"));
-  EXPECT_EQ(to_json(participant_from_json(doc)), doc);
   p.host = "vm";
   p.process = "python";
   p.pid = 12;
@@ -224,7 +185,6 @@ TEST(ParticipantModel, RoundTripsWithAndWithoutTheOptionalKeys) {
   p.state = ParticipantState::gone;
   doc = to_json(p);
   EXPECT_EQ(doc.size(), 19u);  // the spec's Participant, every key
-  EXPECT_EQ(to_json(participant_from_json(doc)), doc);
 }
 
 TEST(ParticipantModel, VendorsByTheirRtpsId) {
@@ -234,22 +194,6 @@ TEST(ParticipantModel, VendorsByTheirRtpsId) {
   EXPECT_EQ(vendor_of(vendor_id_of("zz")), Vendor::other);
   for (auto v : {Vendor::fast_dds, Vendor::cyclone_dds, Vendor::rti_connext, Vendor::opendds, Vendor::other})
     EXPECT_EQ(parse_vendor(to_string(v)), v);
-}
-
-TEST(ParticipantModel, MalformedEntriesAreNamedAndUnknownVendorsReadAsOther) {
-  Participant p;
-  p.guid = "g";
-  auto doc = to_json(p);
-  doc["vendor"] = "a-newer-one";
-  EXPECT_EQ(participant_from_json(doc).vendor, Vendor::other);
-  for (const char* key : {"guid", "state", "addresses", "never-announced"}) {
-    auto bad = to_json(p);
-    bad[key] = 5;
-    EXPECT_THROW(participant_from_json(bad), MalformedDocument) << key;
-  }
-  auto bad = to_json(p);
-  bad["state"] = "sleeping";
-  EXPECT_THROW(participant_from_json(bad), MalformedDocument);
 }
 
 // ---- the description document ----------------------------------------------------------

@@ -1,7 +1,7 @@
 // Who uses a DDS camera (proto/openapi.yaml `DeviceClients`, `InUse`): the
 // participants other than its server with a reader or writer on its topics, the
 // streams they read, and the small summary a device document carries. The daemon
-// derives them from the DDS built-in topics; the C++ client reads them back.
+// derives them from the DDS built-in topics and writes them through to_json.
 #pragma once
 
 #include "rsd_model/device.hpp"  // InUse
@@ -41,7 +41,5 @@ InUse summary_of(const DeviceClients& c);
 
 nlohmann::json to_json(const Client& c);
 nlohmann::json to_json(const DeviceClients& c);
-// Strict; throws MalformedDocument.
-DeviceClients device_clients_from_json(const nlohmann::json& doc);
 
 }  // namespace rsd::model

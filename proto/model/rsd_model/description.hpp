@@ -1,8 +1,7 @@
 // A camera's description (GET /v1/devices/{id}/description; proto/openapi.yaml
 // `DeviceDescription`) as a type: its streams with their profiles and options, its
 // device options, extrinsics and presets. The daemon's answer goes through
-// to_json(description_from_json(...)), so what it serves is what this type holds,
-// and the C++ client reads it with the same from_json.
+// to_json(description_from_json(...)), so what it serves is what this type holds.
 #pragma once
 
 #include "rsd_model/status.hpp"  // MalformedDocument

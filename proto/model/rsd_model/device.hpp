@@ -1,6 +1,7 @@
 // The device document of the API (proto/openapi.yaml, `Device`) as a type. The daemon
-// builds its documents through it and the C++ client reads them through it: one
-// to_json, one from_json, one spelling of every key.
+// builds its documents through it: one to_json, one from_json, and the keys of
+// spelling.hpp (the C++ client reads the same documents by them, with its own JSON
+// library: client/src/device_list.cpp).
 //
 // Round trip: to_json(device_from_json(doc)) == doc for any JSON object. A DDS device
 // carries the camera's realdds device-info verbatim, and a peer may send keys of its

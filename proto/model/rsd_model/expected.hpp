@@ -1,7 +1,7 @@
 // Expected cameras: the ones a robot, a cell or a rig is built with, as the daemon's
 // configuration names them (`expect`, --expect), and the API's document of which of
 // them are listed now (GET /v1/expected, /healthz "expected"; proto/openapi.yaml
-// `Expected`). The daemon writes it, the clients read it: one spelling of every key.
+// `Expected`). The daemon writes it with the keys of spelling.hpp, which the clients read it by.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -55,6 +55,5 @@ struct ExpectedReport {
 };
 
 nlohmann::json to_json(const ExpectedReport& report);
-ExpectedReport expected_report_from_json(const nlohmann::json& doc);  // throws MalformedDocument
 
 }  // namespace rsd::model

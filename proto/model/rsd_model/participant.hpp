@@ -1,8 +1,8 @@
 // A DDS participant as /v1/participants shows it (proto/openapi.yaml
 // `Participant`): who is on a joined domain, seen from the daemon's own
 // participant, whether or not it announces cameras. The daemon fills it from
-// Cyclone's DCPSParticipant reader and its device-info bookkeeping; the C++ client
-// reads it back through participant_from_json.
+// Cyclone's DCPSParticipant reader and its device-info bookkeeping and writes it
+// through to_json.
 #pragma once
 
 #include "rsd_model/status.hpp"  // MalformedDocument
@@ -59,6 +59,5 @@ struct Participant {
 };
 
 nlohmann::json to_json(const Participant& p);
-Participant participant_from_json(const nlohmann::json& doc);  // throws MalformedDocument
 
 }  // namespace rsd::model

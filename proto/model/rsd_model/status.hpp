@@ -1,7 +1,7 @@
 // The API's status documents as types: a domain's entry of /v1/domains
 // (proto/openapi.yaml `DomainStatus`) and /healthz (`Health`). The daemon fills
-// them from its sources and writes them through to_json; the C++ client reads
-// them through from_json: one spelling of every key, as for devices (device.hpp).
+// them from its sources and writes them through to_json, with the keys of
+// spelling.hpp, which the C++ client reads them by.
 #pragma once
 
 #include "rsd_model/expected.hpp"
@@ -94,8 +94,6 @@ struct MalformedDocument : std::runtime_error {
 };
 
 nlohmann::json to_json(const DomainStatus& status);
-DomainStatus domain_status_from_json(const nlohmann::json& doc);  // throws MalformedDocument
 nlohmann::json to_json(const Health& health);
-Health health_from_json(const nlohmann::json& doc);  // throws MalformedDocument
 
 }  // namespace rsd::model
