@@ -64,5 +64,18 @@ def test_exported_symbols_are_the_list_in_the_tree():
     assert listed == sorted(listed), "keep the file sorted (as the command writes it)"
 
 
+def json_libraries(binary):
+    """Which JSON libraries' code is in a binary: every symbol, local ones too (the
+    build keeps its symbol table), demangled."""
+    r = subprocess.run(["nm", "-C", binary], capture_output=True, text=True, check=True)
+    return {lib for lib, mark in (("nlohmann", "nlohmann::"), ("rapidjson", "rapidjson::")) if mark in r.stdout}
+
+
+def test_each_client_binary_has_one_json_library():
+    # The client's one JSON library is RapidJSON (client/src/json.hpp); nlohmann is the daemon's.
+    for binary in (LIBRARY, os.path.join(BUILD, "client", "rs-discover")):
+        assert json_libraries(binary) == {"rapidjson"}, binary
+
+
 if __name__ == "__main__":
     sys.stdout.write(HEADER + "".join(n + "\n" for n in sorted(exported(sys.argv[1]))))
