@@ -4,8 +4,6 @@
 #include "common.hpp"
 #include "usb_holders.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 
 namespace rsdiscover {
@@ -23,21 +21,52 @@ bool has_source(const rsdiscovery::Device& d, const std::string& source) {
 
 // The camera's device nodes as the daemon found them in sysfs ("usb"."device-nodes").
 std::vector<std::string> device_nodes(const rsdiscovery::Device& d) {
-  std::vector<std::string> out;
-  const auto doc = nlohmann::json::parse(d.json, nullptr, false);
-  if (!doc.is_object() || !doc.contains("usb") || !doc["usb"].is_object()) return out;
-  const auto it = doc["usb"].find("device-nodes");
-  if (it == doc["usb"].end() || !it->is_array()) return out;
-  for (const auto& n : *it)
-    if (n.is_string()) out.push_back(n.get<std::string>());
-  return out;
+  const auto doc = rsdiscovery::json::parse_or_null(d.json);
+  return rsdiscovery::json::texts(rsdiscovery::json::find(rsdiscovery::json::find(doc, "usb"), "device-nodes"));
 }
 
-nlohmann::json holders_json(const UsbHolders& found) {
-  auto list = nlohmann::json::array();
-  for (const auto& h : found.holders)
-    list.push_back({{"pid", h.pid}, {"uid", h.uid}, {"user", h.user}, {"command", h.command}, {"nodes", h.nodes}});
-  return list;
+// --json's document: the daemon's, with the USB holders added. Its keys are in byte
+// order at every level, as in all of rs-discover's JSON: the daemon writes them so,
+// and the holders' keys are put in their place among them.
+std::string clients_json(const std::optional<rsdiscovery::CameraClients>& dds, const UsbHolders* holders,
+                         int indent) {
+  namespace json = rsdiscovery::json;
+  json::Document doc = dds ? json::parse_or_null(dds->json) : json::Document(rapidjson::kObjectType);
+  if (!doc.IsObject()) doc.SetObject();
+  if (holders) {
+    auto& a = doc.GetAllocator();
+    const auto str = [&](const std::string& s) {
+      return json::Value(s.data(), static_cast<rapidjson::SizeType>(s.size()), a);
+    };
+    json::Value list(rapidjson::kArrayType);
+    for (const auto& h : holders->holders) {
+      json::Value nodes(rapidjson::kArrayType);
+      for (const auto& n : h.nodes) nodes.PushBack(str(n), a);
+      json::Value holder(rapidjson::kObjectType);
+      holder.AddMember("command", str(h.command), a);
+      holder.AddMember("nodes", nodes, a);
+      holder.AddMember("pid", h.pid, a);
+      holder.AddMember("uid", h.uid, a);
+      holder.AddMember("user", str(h.user), a);
+      list.PushBack(holder, a);
+    }
+    // Into their place among the daemon's keys, in place of any of the same name.
+    json::Value sorted(rapidjson::kObjectType);
+    const auto add_holders = [&] {
+      sorted.AddMember("holders", list, a);
+      sorted.AddMember("holders-complete", holders->unreadable == 0, a);
+    };
+    bool added = false;
+    for (auto& m : doc.GetObject()) {
+      const std::string_view key(m.name.GetString(), m.name.GetStringLength());
+      if (key == "holders" || key == "holders-complete") continue;
+      if (!added && key > "holders") add_holders(), added = true;
+      sorted.AddMember(m.name, m.value, a);
+    }
+    if (!added) add_holders();
+    static_cast<json::Value&>(doc).Swap(sorted);  // the values only: the allocator stays doc's
+  }
+  return json::dump(doc, indent);
 }
 
 void print_dds_clients(const rsdiscovery::CameraClients& found) {
@@ -100,12 +129,7 @@ int run(const ParsedArgs& args) {
     holders = find_usb_holders(nodes);
   }
   if (args.has("json")) {
-    auto doc = dds ? nlohmann::json::parse(dds->json) : nlohmann::json::object();
-    if (holders) {
-      doc["holders"] = holders_json(*holders);
-      doc["holders-complete"] = holders->unreadable == 0;
-    }
-    std::printf("%s\n", doc.dump(output().color ? 2 : -1).c_str());
+    std::printf("%s\n", clients_json(dds, holders ? &*holders : nullptr, output().color ? 2 : -1).c_str());
   } else {
     if (dds) print_dds_clients(*dds);
     if (dds && holders) std::printf("\nheld on USB:\n");

@@ -1,8 +1,6 @@
 // rs-discover describe: what a network camera can do (Camera Discovery), as tables.
 #include "common.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <chrono>
 
 namespace rsdiscover {
@@ -21,9 +19,11 @@ bool same(const rsdiscovery::StreamProfile& a, const rsdiscovery::StreamProfile&
 // shape the server gave it.
 std::string option_text(const rsdiscovery::CameraOption& o) {
   std::string out = o.value.empty() ? "-" : o.value;
-  const auto doc = nlohmann::json::parse(o.json, nullptr, false);
-  if (doc.is_array() && doc.size() >= 6 && doc[2].is_number() && doc[3].is_number())
-    out += " (" + doc[2].dump() + ".." + doc[3].dump() + ", step " + doc[4].dump() + ", default " + doc[5].dump() + ")";
+  const auto doc = rsdiscovery::json::parse_or_null(o.json);
+  if (doc.IsArray() && doc.Size() >= 6 && doc[2].IsNumber() && doc[3].IsNumber()) {
+    using rsdiscovery::json::dump;
+    out += " (" + dump(doc[2]) + ".." + dump(doc[3]) + ", step " + dump(doc[4]) + ", default " + dump(doc[5]) + ")";
+  }
   return out;
 }
 
@@ -43,7 +43,8 @@ int run(const ParsedArgs& args) {
     return kNotFound;
   }
   if (args.has("json")) {
-    std::printf("%s\n", nlohmann::json::parse(description.json).dump(output().color ? 2 : -1).c_str());
+    const auto doc = rsdiscovery::json::parse_or_null(description.json);
+    std::printf("%s\n", rsdiscovery::json::dump(doc, output().color ? 2 : -1).c_str());
     return kOk;
   }
   Table streams({"STREAM", "TYPE", "SENSOR", "PROFILE", "FPS", "DEFAULT"});

@@ -1,8 +1,6 @@
 // rs-discover get: devices by id (or, failing that, by serial or topic-root).
 #include "common.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <set>
 
 namespace rsdiscover {
@@ -43,10 +41,13 @@ int run(const ParsedArgs& args) {
   }
   if (args.has("json")) {
     // One document for one ID, as before; an array for several.
-    nlohmann::json out = nlohmann::json::array();
-    for (const auto& d : found) out.push_back(nlohmann::json::parse(d.json));
-    if (args.positional.size() == 1 && found.size() == 1) out = out[0];
-    if (!found.empty() || args.positional.size() > 1) std::printf("%s\n", out.dump(output().color ? 2 : -1).c_str());
+    rsdiscovery::json::Document out(rapidjson::kArrayType);
+    for (const auto& d : found)
+      out.PushBack(rsdiscovery::json::Value(rsdiscovery::json::parse_or_null(d.json), out.GetAllocator()),
+                   out.GetAllocator());
+    const auto& shown = args.positional.size() == 1 && found.size() == 1 ? out[0] : out;
+    if (!found.empty() || args.positional.size() > 1)
+      std::printf("%s\n", rsdiscovery::json::dump(shown, output().color ? 2 : -1).c_str());
     return status;
   }
   if (format) {
@@ -61,7 +62,7 @@ int run(const ParsedArgs& args) {
 }
 
 void show(const rsdiscovery::Device& d) {
-  const auto doc = nlohmann::json::parse(d.json);
+  const auto doc = rsdiscovery::json::parse_or_null(d.json);
   row("ID", d.id);
   row("Name", d.name);
   row("Serial", d.serial);
@@ -89,8 +90,13 @@ void show(const rsdiscovery::Device& d) {
   static const std::set<std::string> shown = {
       "id", "name", "serial", "source", "sources", "domain", "topic-root", "product-line", "product-id",
       "fw-version", "recovery", "warnings", "server", "usb", "first-seen", "last-seen"};
-  for (const auto& [k, v] : doc.items())
-    if (!shown.count(k)) row(k.c_str(), v.is_string() ? v.get<std::string>() : v.dump());
+  if (!doc.IsObject()) return;
+  for (const auto& m : doc.GetObject()) {
+    const std::string key(m.name.GetString(), m.name.GetStringLength());
+    if (shown.count(key)) continue;
+    const auto text = rsdiscovery::json::text(&m.value);
+    row(key.c_str(), text ? std::string(*text) : rsdiscovery::json::dump(m.value));
+  }
 }
 
 }  // namespace

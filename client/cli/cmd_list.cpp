@@ -1,8 +1,6 @@
 // rs-discover list: the devices the daemon knows now, as a table or JSON.
 #include "common.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <chrono>
 
 namespace rsdiscover {
@@ -12,14 +10,15 @@ namespace {
 // (its "in-use"; `rs-discover clients ID` says who). Parsed only when it is there.
 std::string in_use_marker(const rsdiscovery::Device& d) {
   if (d.json.find("\"in-use\"") == std::string::npos) return "";
-  const auto doc = nlohmann::json::parse(d.json, nullptr, false);
-  const auto it = doc.is_object() ? doc.find("in-use") : doc.end();
-  if (it == doc.end() || !it->is_object()) return "";
+  const auto doc = rsdiscovery::json::parse_or_null(d.json);
+  const auto* in_use = rsdiscovery::json::find(doc, "in-use");
+  if (!in_use || !in_use->IsObject()) return "";
   std::string out = ", in use";
-  if (auto s = it->find("streaming"); s != it->end() && s->is_array() && !s->empty()) {
+  const auto* s = rsdiscovery::json::find(*in_use, "streaming");
+  if (s && s->IsArray() && !s->Empty()) {
     out += ":";
-    for (std::size_t i = 0; i < s->size(); ++i)
-      if ((*s)[i].is_string()) out += (i ? ", " : " ") + (*s)[i].get<std::string>();
+    for (rapidjson::SizeType i = 0; i < s->Size(); ++i)
+      if (const auto name = rsdiscovery::json::text(&(*s)[i])) out += (i ? ", " : " ") + std::string(*name);
   }
   return out;
 }

@@ -23,9 +23,11 @@ int run(const ParsedArgs& args) {
     return kOk;
   }
   if (format) {
-    std::vector<nlohmann::json> docs;
-    for (const auto& p : shown) docs.push_back(nlohmann::json::parse(p.json, nullptr, false));
-    format->check(docs);
+    std::vector<rsdiscovery::json::Document> docs;
+    std::vector<const rsdiscovery::json::Value*> values;
+    docs.reserve(shown.size());
+    for (const auto& p : shown) values.push_back(&docs.emplace_back(rsdiscovery::json::parse_or_null(p.json)));
+    format->check(values);
     std::string out;
     for (const auto& doc : docs) out += format->render(doc) + "\n";
     std::fputs(out.c_str(), stdout);

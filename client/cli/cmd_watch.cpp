@@ -1,8 +1,6 @@
 // rs-discover watch: one line per change of the device table, until interrupted.
 #include "common.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <pthread.h>
 #include <signal.h>
 #include <sys/time.h>
@@ -39,12 +37,13 @@ std::string clock_now() {
   return buf;
 }
 
+using rsdiscovery::json::Value;
+
 // A network camera's clients coming and going, from its "in-use" before and now
 // (null: no client): "a client came (2 clients, streaming Depth)", "its last client left".
-std::string in_use_change(const nlohmann::json& old, const nlohmann::json& now) {
-  const auto count = [](const nlohmann::json& u) -> std::uint64_t {
-    const auto it = u.is_object() ? u.find("clients") : u.end();
-    return it != u.end() && it->is_number_unsigned() ? it->get<std::uint64_t>() : 0;
+std::string in_use_change(const Value& old, const Value& now) {
+  const auto count = [](const Value& u) -> std::uint64_t {
+    return rsdiscovery::json::unsigned_integer(rsdiscovery::json::find(u, "clients")).value_or(0);
   };
   const std::uint64_t was = count(old), is = count(now);
   std::string out;
@@ -52,52 +51,61 @@ std::string in_use_change(const nlohmann::json& old, const nlohmann::json& now) 
   else if (is < was) out = is == 0 ? "its last client left" : was - is == 1 ? "a client left" : std::to_string(was - is) + " clients left";
   else out = "its streams changed";
   if (is == 0) return out;
-  const auto streaming = now.find("streaming");
-  const std::string streams = streaming != now.end() ? value_text(*streaming) : "";
+  const auto* streaming = rsdiscovery::json::find(now, "streaming");
+  const std::string streams = streaming ? value_text(*streaming) : "";
   return out + " (" + std::to_string(is) + (is == 1 ? " client" : " clients") +
          (streams.empty() ? ", not streaming" : ", streaming " + streams) + ")";
 }
+
+std::string_view name_of(const rapidjson::Value::Member& m) { return {m.name.GetString(), m.name.GetStringLength()}; }
 
 // What a `changed` event changed, in words, from the device as last seen:
 // "fw-version 5.16.0.1 -> 5.16.1.0, now served by server-b (10.0.0.2), entered
 // recovery". Nested fields by their dotted names, lists joined by commas; the times
 // seen are left out.
 std::string changes(const std::string& before_json, const std::string& after_json) {
-  const auto before = nlohmann::json::parse(before_json, nullptr, false);
-  const auto after = nlohmann::json::parse(after_json, nullptr, false);
-  if (!before.is_object() || !after.is_object()) return "";
-  const nlohmann::json none;
-  const auto get = [&](const nlohmann::json& doc, const char* key) -> const nlohmann::json& {
-    const auto it = doc.find(key);
-    return it == doc.end() ? none : *it;
+  const auto before = rsdiscovery::json::parse_or_null(before_json);
+  const auto after = rsdiscovery::json::parse_or_null(after_json);
+  if (!before.IsObject() || !after.IsObject()) return "";
+  const Value none;
+  const auto get = [&](const Value& doc, std::string_view key) -> const Value& {
+    const auto* v = rsdiscovery::json::find(doc, key);
+    return v ? *v : none;
   };
-  const auto shown = [](const nlohmann::json& v) {
+  const auto shown = [](const Value& v) {
     const std::string text = value_text(v);
     return text.empty() ? std::string("none") : text;
   };
   std::vector<std::string> parts;
   // Fields of an object that changed, as "prefix.key old -> new".
-  std::function<void(const std::string&, const nlohmann::json&, const nlohmann::json&)> fields =
-      [&](const std::string& prefix, const nlohmann::json& old, const nlohmann::json& now) {
-        if (old.is_object() && now.is_object()) {
-          for (const auto& [key, value] : now.items()) fields(prefix + "." + key, get(old, key.c_str()), value);
-          for (const auto& [key, value] : old.items())
-            if (!now.contains(key)) fields(prefix + "." + key, value, none);
+  std::function<void(const std::string&, const Value&, const Value&)> fields =
+      [&](const std::string& prefix, const Value& old, const Value& now) {
+        if (old.IsObject() && now.IsObject()) {
+          for (const auto& m : now.GetObject())
+            fields(prefix + "." + std::string(name_of(m)), get(old, name_of(m)), m.value);
+          for (const auto& m : old.GetObject())
+            if (!rsdiscovery::json::find(now, name_of(m)))
+              fields(prefix + "." + std::string(name_of(m)), m.value, none);
           return;
         }
         if (old == now) return;
         const std::string name = prefix.substr(1);
-        if (old.is_null()) parts.push_back(name + " " + shown(now) + " (new)");
-        else if (now.is_null()) parts.push_back(name + " " + shown(old) + " (gone)");
+        if (old.IsNull()) parts.push_back(name + " " + shown(now) + " (new)");
+        else if (now.IsNull()) parts.push_back(name + " " + shown(old) + " (gone)");
         else parts.push_back(name + " " + shown(old) + " \u2192 " + shown(now));
       };
-  for (const auto& [key, value] : after.items()) {
+  const auto has = [](const Value& array, const Value& v) {
+    return std::any_of(array.Begin(), array.End(), [&](const Value& e) { return e == v; });
+  };
+  for (const auto& m : after.GetObject()) {
+    const std::string key(name_of(m));
+    const Value& value = m.value;
     if (key == "first-seen" || key == "last-seen") continue;
-    const auto& old = get(before, key.c_str());
+    const auto& old = get(before, key);
     if (old == value) continue;
-    if (key == "recovery" && value.is_boolean()) {
-      parts.push_back(value.get<bool>() ? "entered recovery mode" : "left recovery mode");
-    } else if (key == "server" && value.is_object() && old.is_object() &&
+    if (key == "recovery" && value.IsBool()) {
+      parts.push_back(value.GetBool() ? "entered recovery mode" : "left recovery mode");
+    } else if (key == "server" && value.IsObject() && old.IsObject() &&
                get(old, "participant-guid") != get(value, "participant-guid")) {
       // Another server announces it now (the first one went, or a second one spoke last).
       std::string by = value_text(get(value, "participant-name"));
@@ -106,22 +114,24 @@ std::string changes(const std::string& before_json, const std::string& after_jso
       parts.push_back("now served by " + by + (at.empty() ? "" : " (" + at + ")"));
     } else if (key == "in-use") {
       parts.push_back(in_use_change(old, value));
-    } else if (key == "warnings" && value.is_array()) {
-      for (const auto& w : value)
-        if (!old.is_array() || std::find(old.begin(), old.end(), w) == old.end()) parts.push_back("warning: " + value_text(w));
-      if (old.is_array())
-        for (const auto& w : old)
-          if (std::find(value.begin(), value.end(), w) == value.end()) parts.push_back("warning gone: " + value_text(w));
+    } else if (key == "warnings" && value.IsArray()) {
+      for (const auto& w : value.GetArray())
+        if (!old.IsArray() || !has(old, w)) parts.push_back("warning: " + value_text(w));
+      if (old.IsArray())
+        for (const auto& w : old.GetArray())
+          if (!has(value, w)) parts.push_back("warning gone: " + value_text(w));
     } else {
       fields("." + key, old, value);
     }
   }
-  for (const auto& [key, value] : before.items())
-    if (!after.contains(key) && key != "first-seen" && key != "last-seen") {
+  for (const auto& m : before.GetObject()) {
+    const std::string key(name_of(m));
+    if (!rsdiscovery::json::find(after, key) && key != "first-seen" && key != "last-seen") {
       if (key == "recovery") parts.push_back("left recovery mode");
-      else if (key == "in-use") parts.push_back(in_use_change(value, none));
-      else fields("." + key, value, none);
+      else if (key == "in-use") parts.push_back(in_use_change(m.value, none));
+      else fields("." + key, m.value, none);
     }
+  }
   return join(parts, ", ");
 }
 
@@ -130,12 +140,11 @@ void print_event(const rsdiscovery::Event& e, bool json, bool initial, const std
   const auto& d = e.device;
   std::string line;
   if (json) {
-    nlohmann::json out = {{"event", rsdiscovery::to_string(e.type)},
-                          {"id", e.id},
-                          {"synthetic", e.synthetic},
-                          {"device", nlohmann::json::parse(d.json)}};
-    if (initial) out["initial"] = true;
-    line = out.dump();
+    // Keys in byte order, as in all of rs-discover's JSON.
+    line = "{\"device\":" + rsdiscovery::json::dump(rsdiscovery::json::parse_or_null(d.json)) +
+           ",\"event\":" + rsdiscovery::json::quote(rsdiscovery::to_string(e.type)) +
+           ",\"id\":" + std::to_string(e.id) + (initial ? ",\"initial\":true" : "") +
+           ",\"synthetic\":" + (e.synthetic ? "true" : "false") + "}";
   } else {
     char type[16];
     std::snprintf(type, sizeof type, "%-7s", rsdiscovery::to_string(e.type));

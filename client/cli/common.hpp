@@ -6,7 +6,7 @@
 
 #include <rsdiscovery/rsdiscovery.hpp>
 
-#include <nlohmann/json.hpp>
+#include "json.hpp"
 
 #include <cstdio>
 #include <functional>
@@ -157,9 +157,9 @@ class Template {
   Template(const std::string& text, std::vector<std::string> known);
   // A field neither documented nor in any of these documents (a device may carry
   // more of its device-info than the API documents) is an error.
-  void check(const std::vector<nlohmann::json>& docs) const;
+  void check(const std::vector<const rsdiscovery::json::Value*>& docs) const;
   // `computed`: the value of a field that is not in the document ({state}, {age} ...).
-  std::string render(const nlohmann::json& doc,
+  std::string render(const rsdiscovery::json::Value& doc,
                      const std::function<std::optional<std::string>(const std::string&)>& computed = {}) const;
 
  private:
@@ -181,7 +181,7 @@ void print_formatted(const Template& tmpl, const std::vector<rsdiscovery::Device
 inline constexpr OptionSpec kFormatOption = {"format", 'f', "TEMPLATE",
                                              "print each as TEMPLATE says ({name}, {server.addresses}, ...; see above)"};
 // A JSON value as text: a string bare, a list joined by commas, null empty.
-std::string value_text(const nlohmann::json& v);
+std::string value_text(const rsdiscovery::json::Value& v);
 
 // A table like `docker ps`: columns padded to their widest cell, two spaces apart.
 class Table {

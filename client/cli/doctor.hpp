@@ -12,6 +12,7 @@
 
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace rsdiscover::doctor {
@@ -38,6 +39,12 @@ class Report {
  private:
   std::vector<Finding> findings_;
 };
+
+// A JSON file a user edited, as its readers take it: librealsense's parser and the
+// daemon's skip the UTF-8 byte order mark some editors put first; RapidJSON does not.
+inline std::string_view without_bom(std::string_view text) {
+  return text.substr(text.rfind("\xEF\xBB\xBF", 0) == 0 ? 3 : 0);
+}
 
 // ---- this host's network (doctor_host.cpp) ------------------------------------------
 

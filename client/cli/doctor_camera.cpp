@@ -5,8 +5,6 @@
 #include "doctor.hpp"
 #include "usb_holders.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <chrono>
 
@@ -62,13 +60,9 @@ void check_dds_clients(Report& r, rsdiscovery::Client& client, const rsdiscovery
 }
 
 void check_usb_holders(Report& r, const rsdiscovery::Device& d) {
-  std::vector<std::string> nodes;
-  const auto doc = nlohmann::json::parse(d.json, nullptr, false);
-  if (doc.is_object() && doc.contains("usb") && doc["usb"].is_object())
-    if (auto it = doc["usb"].find("device-nodes"); it != doc["usb"].end() && it->is_array())
-      for (const auto& n : *it)
-        if (n.is_string()) nodes.push_back(n.get<std::string>());
-  const auto found = find_usb_holders(nodes);
+  const auto doc = rsdiscovery::json::parse_or_null(d.json);
+  const auto* usb = rsdiscovery::json::find(doc, "usb");
+  const auto found = find_usb_holders(rsdiscovery::json::texts(rsdiscovery::json::find(usb, "device-nodes")));
   for (const auto& h : found.holders)
     r.add(Verdict::info, "in-use",
           camera_name(d) + " is held open by pid " + std::to_string(h.pid) + " (" + h.user + ": " + h.command +
@@ -108,10 +102,10 @@ void check_ready(Report& r, rsdiscovery::Client& client, rsdiscovery::Device& d)
     r.add(Verdict::ok, "ready", camera_name(d) + " sent its whole description when asked: it is ready");
     return;
   }
-  const auto stage = nlohmann::json::parse(d.field("ready-stage"), nullptr, false);
+  const auto stage = rsdiscovery::json::parse_or_null(d.field("ready-stage"));
   r.add(Verdict::warn, "ready",
         camera_name(d) + " is listed but not ready: its server's notification set stopped at " +
-            (stage.is_string() ? stage.get<std::string>() : std::string("an unknown stage")) +
+            rsdiscovery::json::text_or(&stage, "an unknown stage") +
             ". librealsense waits 5 s for that set, then gives the camera up (\"timeout waiting to get ready\"); "
             "the daemon asks again, less and less often. Restart the camera's server (power-cycle a PoE camera); "
             "if it happens on one network only, look for lost samples there (MTU, a switch dropping fragments)");

@@ -4,8 +4,6 @@
 // do, one line each.
 #include "doctor.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <arpa/inet.h>
 
 #include <algorithm>
@@ -14,6 +12,9 @@
 
 namespace rsdiscover::doctor {
 namespace {
+
+using rsdiscovery::json::find;
+using rsdiscovery::json::text_or;
 
 // The UDP ports of DDS domain d (the RTPS port mapping): 7400 + 250 d upwards. The
 // daemon's Cyclone DDS receives unicast on a port of its own choosing besides
@@ -104,8 +105,7 @@ void check_domains(Report& r, const std::vector<rsdiscovery::DomainStatus>& doma
     joined.push_back(std::to_string(d.domain) + " (" + d.state + ")");
     zero = zero || d.domain == 0;
     if (d.state == "failed") {
-      const auto doc = nlohmann::json::parse(d.json, nullptr, false);
-      const std::string why = doc.is_object() ? doc.value("error", std::string()) : std::string();
+      const std::string why = text_or(find(rsdiscovery::json::parse_or_null(d.json), "error"));
       r.add(Verdict::fail, "domain", "domain " + std::to_string(d.domain) + " could not be joined: " + why);
     }
   }
@@ -276,11 +276,12 @@ void check_networks(Report& r, const std::vector<rsdiscovery::DomainStatus>& dom
                     const std::optional<spdp::Heard>& heard) {
   const auto host = ipv4_interfaces();
   for (const auto& d : domains) {
-    const auto doc = nlohmann::json::parse(d.json, nullptr, false);
-    if (!doc.is_object() || !doc.contains("interfaces") || !doc["interfaces"].is_array()) continue;
+    const auto doc = rsdiscovery::json::parse_or_null(d.json);
+    const auto* interfaces = find(doc, "interfaces");
+    if (!interfaces || !interfaces->IsArray()) continue;
     std::set<std::string> joined;
-    for (const auto& i : doc["interfaces"])
-      if (i.is_object() && i.value("name", std::string()) != "") joined.insert(i.value("name", std::string()));
+    for (const auto& i : interfaces->GetArray())
+      if (const std::string name = text_or(find(i, "name")); !name.empty()) joined.insert(name);
     if (joined.empty()) continue;  // the Cyclone DDS configuration names them: the user's choice
     const std::string dom = "domain " + std::to_string(d.domain);
     const bool loopback_only = std::all_of(joined.begin(), joined.end(), [&](const std::string& name) {
@@ -323,11 +324,11 @@ void check_devices(Report& r, const std::vector<rsdiscovery::Device>& devices, c
       r.add(Verdict::info, "camera", (d.name.empty() ? d.id : d.name) + " " + d.serial +
                                          " runs its recovery firmware: update its firmware");
   }
-  const auto doc = nlohmann::json::parse(health.json, nullptr, false);
-  const auto usb = doc.is_object() ? doc.value("usb", nlohmann::json::object()) : nlohmann::json::object();
-  const std::string state = usb.value("state", "");
+  const auto doc = rsdiscovery::json::parse_or_null(health.json);
+  const auto* usb = find(doc, "usb");
+  const std::string state = text_or(find(usb, "state"));
   if (state == "unavailable")
-    r.add(Verdict::warn, "usb", "the daemon cannot watch USB: " + usb.value("error", std::string("(no reason given)")));
+    r.add(Verdict::warn, "usb", "the daemon cannot watch USB: " + text_or(find(usb, "error"), "(no reason given)"));
   else if (state == "off")
     r.add(Verdict::info, "usb", "the daemon does not watch USB (--no-usb or \"usb\": false)");
   else if (!state.empty())
@@ -339,12 +340,12 @@ void check_devices(Report& r, const std::vector<rsdiscovery::Device>& devices, c
 // clients and this command go by when the daemon cannot be asked). The daemon says
 // whether they agree (/healthz "http"; older daemons do not).
 void check_http(Report& r, const rsdiscovery::Health& health) {
-  const auto doc = nlohmann::json::parse(health.json, nullptr, false);
-  if (!doc.is_object() || !doc.contains("http") || !doc["http"].is_object()) return;
-  const auto& http = doc["http"];
-  const std::string listening = http.value("listening", ""), configured = http.value("configured", "");
-  const bool systemd = http.value("from", "") == "systemd";
-  if (!http.value("agrees", true)) {
+  const auto doc = rsdiscovery::json::parse_or_null(health.json);
+  const auto* http = find(doc, "http");
+  if (!http || !http->IsObject()) return;
+  const std::string listening = text_or(find(http, "listening")), configured = text_or(find(http, "configured"));
+  const bool systemd = text_or(find(http, "from")) == "systemd";
+  if (!rsdiscovery::json::boolean(find(http, "agrees")).value_or(true)) {
     r.add(Verdict::warn, "http",
           "the daemon listens for HTTP on " + (listening.empty() ? std::string("nothing") : listening) +
               " (its socket unit's ListenStream=), but its configuration's \"http\" says " + configured +

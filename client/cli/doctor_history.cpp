@@ -12,21 +12,24 @@ constexpr std::size_t kMostNamed = 10;  // per kind of finding: a report, not a 
 
 struct Seen {
   std::uint64_t flaps = 0;
-  nlohmann::json last;          // the latest change
+  const rsdiscovery::json::Value* last = nullptr;  // the latest change
   std::string server;           // the latest removal's words, which name the server and its host
 };
 }  // namespace
 
 void check_history(Report& r, const std::string& history_json) {
-  const auto doc = nlohmann::json::parse(history_json, nullptr, false);
-  if (!doc.is_object() || !doc.contains("changes") || !doc["changes"].is_array()) return;  // an older daemon
+  using rsdiscovery::json::find;
+  using rsdiscovery::json::text_or;
+  const auto doc = rsdiscovery::json::parse_or_null(history_json);
+  const auto* changes = find(doc, "changes");
+  if (!changes || !changes->IsArray()) return;  // an older daemon
   std::map<std::string, Seen> by_id;
-  for (const auto& c : doc["changes"]) {
-    if (!c.is_object()) continue;
-    Seen& s = by_id[c.value("id", "")];
-    if (c.value("flap", false)) ++s.flaps;
-    if (c.value("event", "") == "removed" && c.contains("detail")) s.server = c.value("detail", "");
-    s.last = c;
+  for (const auto& c : changes->GetArray()) {
+    if (!c.IsObject()) continue;
+    Seen& s = by_id[text_or(find(c, "id"))];
+    if (rsdiscovery::json::boolean(find(c, "flap")).value_or(false)) ++s.flaps;
+    if (text_or(find(c, "event")) == "removed" && find(c, "detail")) s.server = text_or(find(c, "detail"));
+    s.last = &c;
   }
   std::size_t gone = 0, flapping = 0;
   for (const auto& [id, s] : by_id) {
@@ -39,17 +42,17 @@ void check_history(Report& r, const std::string& history_json) {
     // server still there, as a server that exits does), that was unplugged, or whose
     // domain the user dropped, left on purpose: worth knowing, no fault. Lost by its
     // lease, with the network, or refused: that explains a missing camera.
-    const std::string reason = s.last.value("reason", "?");
+    const std::string reason = text_or(find(s.last, "reason"), "?");
     const bool meant = reason != "lease-expired" && reason != "interface-gone" && reason != "refused";
     // A lease-expired camera's host, probed by the daemon after the removal.
-    const std::string host = s.last.value("host-check", "");
+    const std::string host = text_or(find(s.last, "host-check"));
     const std::string host_words =
         host == "host-present"     ? "; its host still answers: the camera's server hung (power-cycle a PoE camera)"
         : host == "host-unreachable" ? "; its host does not answer: check the cable, the switch or the power"
                                      : "";
-    if (s.last.value("event", "") == "removed" && gone++ < kMostNamed)
+    if (text_or(find(s.last, "event")) == "removed" && gone++ < kMostNamed)
       r.add(meant ? Verdict::info : Verdict::warn, "gone",
-            id + " left at " + s.last.value("at", "") + ": " + reason +
+            id + " left at " + text_or(find(s.last, "at")) + ": " + reason +
                 (s.server.empty() ? "" : " (" + s.server + ")") + host_words + " ('rs-discover history " + id +
                 "')");
   }

@@ -11,21 +11,26 @@
 // camera of product line D400 only with bit 0x02, D500 with 0x20, any other with 0x01.
 #include "doctor.hpp"
 
+#include <rapidjson/error/en.h>
+
 #include <pwd.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <map>
-#include <sstream>
+#include <optional>
 
 namespace rsdiscover::doctor {
 namespace {
 
-using ojson = nlohmann::ordered_json;
+namespace json = rsdiscovery::json;
 
 constexpr unsigned kMaskAny = 0xff;
 
@@ -87,21 +92,41 @@ struct Config {
   std::string path;
   enum class State { missing, broken, read } state = State::missing;
   std::string error;  // broken: the parser's words
-  ojson doc;
+  json::Document doc;  // as the file has it, its keys in its order
 };
 
+// Why `text` is not JSON, with where: what a user needs to mend the file. RapidJSON
+// is asked where only when json::parse's own checks passed and RapidJSON refused the
+// text itself ("not JSON"): the text it refuses before (numbers it may not be given)
+// is not handed to it again.
+std::string parse_error(std::string_view text, const std::string& why) {
+  if (why != "not JSON") return why;
+  json::Document doc;
+  doc.Parse<rapidjson::kParseIterativeFlag | rapidjson::kParseFullPrecisionFlag |
+            rapidjson::kParseValidateEncodingFlag>(text.data(), text.size());
+  if (!doc.HasParseError()) return why;
+  const auto before = text.substr(0, doc.GetErrorOffset());
+  const auto line = 1 + std::count(before.begin(), before.end(), '\n');
+  const auto line_start = before.rfind('\n');
+  const auto column = before.size() - (line_start == std::string_view::npos ? 0 : line_start + 1) + 1;
+  std::string words = rapidjson::GetParseError_En(doc.GetParseError());
+  if (!words.empty() && words.back() == '.') words.pop_back();  // mid-sentence here
+  if (!words.empty()) words[0] = static_cast<char>(std::tolower(static_cast<unsigned char>(words[0])));
+  return why + ": " + words + " at line " + std::to_string(line) + ", column " + std::to_string(column);
+}
+
 Config read_config(const Account& a) {
-  Config c{a, a.home + "/.realsense-config.json", Config::State::missing, "", ojson::object()};
+  Config c{a, a.home + "/.realsense-config.json", Config::State::missing, "", json::Document(rapidjson::kObjectType)};
   std::ifstream in(c.path);
   if (!in) return c;
-  std::stringstream text;
-  text << in.rdbuf();
-  try {
-    c.doc = ojson::parse(text.str());
-    c.state = Config::State::read;
-  } catch (const std::exception& e) {
+  const std::string file{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  const std::string_view text = without_bom(file);
+  if (const auto why = json::parse(text, c.doc)) {
     c.state = Config::State::broken;
-    c.error = e.what();
+    c.error = parse_error(text, *why);
+    c.doc.SetObject();
+  } else {
+    c.state = Config::State::read;
   }
   return c;
 }
@@ -116,18 +141,34 @@ struct Settings {
 
 Settings settings_of(const Config& c) {
   Settings s;
-  if (c.state != Config::State::read || !c.doc.is_object()) return s;
-  const auto ctx = c.doc.find("context");
-  if (ctx == c.doc.end() || !ctx->is_object()) return s;
-  if (const auto dds = ctx->find("dds"); dds != ctx->end() && dds->is_object()) {
-    if (const auto e = dds->find("enabled"); e != dds->end() && e->is_boolean()) s.enabled = e->get<bool>();
-    if (const auto d = dds->find("domain"); d != dds->end() && d->is_number_integer()) s.domain = d->get<int>();
-  }
-  if (const auto m = ctx->find("device-mask"); m != ctx->end() && m->is_number_unsigned()) {
-    s.mask = m->get<unsigned>();
+  if (c.state != Config::State::read) return s;
+  const auto* ctx = json::find(c.doc, "context");
+  const auto* dds = json::find(ctx, "dds");
+  if (const auto e = json::boolean(json::find(dds, "enabled"))) s.enabled = *e;
+  if (const auto* d = json::find(dds, "domain"); d && d->IsInt64()) s.domain = static_cast<int>(d->GetInt64());
+  if (const auto m = json::unsigned_integer(json::find(ctx, "device-mask"))) {
+    s.mask = static_cast<unsigned>(*m);
     s.mask_set = true;
   }
   return s;
+}
+
+// The member `key` of `object`, made an object unless it is one; a new one goes last,
+// after the user's keys.
+json::Value& object_member(json::Value& object, const char* key, json::Document::AllocatorType& a) {
+  auto it = object.FindMember(key);
+  if (it == object.MemberEnd()) {
+    object.AddMember(json::Value(key, a), json::Value(rapidjson::kObjectType), a);
+    it = object.MemberEnd() - 1;
+  }
+  if (!it->value.IsObject()) it->value.SetObject();
+  return it->value;
+}
+
+// Sets `key` of `object` to `value`, where it is, or last.
+void set_member(json::Value& object, const char* key, json::Value value, json::Document::AllocatorType& a) {
+  if (auto it = object.FindMember(key); it != object.MemberEnd()) it->value = value;
+  else object.AddMember(json::Value(key, a), value, a);
 }
 
 std::string hex(unsigned v) {
@@ -202,14 +243,18 @@ int fix_librealsense(const std::vector<rsdiscovery::Device>& devices,
       continue;
     }
     // Only the keys librealsense needs; anything else in the file stays as it was.
-    if (c.state != Config::State::read || !c.doc.is_object()) c.doc = ojson::object();
-    auto& ctx = c.doc["context"];
-    if (!ctx.is_object()) ctx = ojson::object();
-    auto& dds = ctx["dds"];
-    if (!dds.is_object()) dds = ojson::object();
-    dds["enabled"] = true;
-    if (s.domain != cams.domain || dds.contains("domain")) dds["domain"] = cams.domain;
-    if (s.mask_set && (s.mask & cams.bits) != cams.bits) ctx["device-mask"] = s.mask | cams.bits;
+    if (c.state != Config::State::read || !c.doc.IsObject()) c.doc.SetObject();
+    auto& alloc = c.doc.GetAllocator();
+    auto& ctx = object_member(c.doc, "context", alloc);
+    auto& dds = object_member(ctx, "dds", alloc);
+    set_member(dds, "enabled", json::Value(true), alloc);
+    if (s.domain != cams.domain || dds.HasMember("domain")) set_member(dds, "domain", json::Value(cams.domain), alloc);
+    if (s.mask_set && (s.mask & cams.bits) != cams.bits)
+      set_member(ctx, "device-mask", json::Value(s.mask | cams.bits), alloc);
+    // What the line below says of the mask, as the file has it now.
+    std::optional<unsigned> mask;
+    if (const auto* m = json::find(ctx, "device-mask"); m && m->IsInt64()) mask = static_cast<unsigned>(m->GetInt64());
+    else if (m && m->IsUint64()) mask = static_cast<unsigned>(m->GetUint64());
 
     std::string backup;
     if (c.state != Config::State::missing) {
@@ -224,7 +269,7 @@ int fix_librealsense(const std::vector<rsdiscovery::Device>& devices,
     const std::string tmp = c.path + ".tmp";
     {
       std::ofstream out(tmp, std::ios::trunc);
-      out << c.doc.dump(4) << "\n";
+      out << json::dump(c.doc, 4) << "\n";
       if (!out.flush()) {
         std::fprintf(stderr, "rs-discover: cannot write %s: %s\n", tmp.c_str(), std::strerror(errno));
         status = kNotFound;
@@ -240,7 +285,7 @@ int fix_librealsense(const std::vector<rsdiscovery::Device>& devices,
       continue;
     }
     std::printf("%s: DDS on, domain %d%s%s\n", c.path.c_str(), cams.domain,
-                ctx.contains("device-mask") ? (", device-mask " + hex(ctx["device-mask"].get<unsigned>())).c_str() : "",
+                mask ? (", device-mask " + hex(*mask)).c_str() : "",
                 backup.empty() ? "" : (" (the previous file is " + backup + ")").c_str());
   }
   return status;

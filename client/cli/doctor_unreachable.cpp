@@ -5,8 +5,6 @@
 // The library's, header-only: the socket's owner is named as its errors name it.
 #include "../src/account_names.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <dirent.h>
 #include <pwd.h>
 #include <sys/stat.h>
@@ -14,6 +12,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <iterator>
 #include <utility>
 #include <vector>
 
@@ -59,8 +58,9 @@ std::string reachable_http(std::string http) {
 std::optional<std::string> http_in_file(const std::string& path) {
   std::ifstream file(path);
   if (!file) return std::nullopt;
-  const auto doc = nlohmann::json::parse(file, nullptr, false);
-  if (doc.is_object() && doc.contains("http") && doc["http"].is_string()) return doc["http"].get<std::string>();
+  const std::string text{std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
+  const auto doc = rsdiscovery::json::parse_or_null(without_bom(text));
+  if (const auto http = rsdiscovery::json::text(rsdiscovery::json::find(doc, "http"))) return std::string(*http);
   return std::nullopt;
 }
 

@@ -2,8 +2,6 @@
 // have, and printing devices through a template.
 #include "common.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 
 namespace rsdiscover {
@@ -37,39 +35,39 @@ std::optional<std::string> device_computed(const rsdiscovery::Device& d, const s
 }
 
 void print_formatted(const Template& tmpl, const std::vector<rsdiscovery::Device>& devices) {
-  std::vector<nlohmann::json> docs;
+  std::vector<rsdiscovery::json::Document> docs;
+  std::vector<const rsdiscovery::json::Value*> values;
   docs.reserve(devices.size());
-  for (const auto& d : devices) docs.push_back(nlohmann::json::parse(d.json, nullptr, false));
-  tmpl.check(docs);
+  values.reserve(devices.size());
+  for (const auto& d : devices) values.push_back(&docs.emplace_back(rsdiscovery::json::parse_or_null(d.json)));
+  tmpl.check(values);
   std::string out;
   for (std::size_t i = 0; i < devices.size(); ++i)
     out += tmpl.render(docs[i], [&](const std::string& f) { return device_computed(devices[i], f); }) + "\n";
   std::fputs(out.c_str(), stdout);
 }
 
-std::string value_text(const nlohmann::json& v) {
-  if (v.is_null()) return "";
-  if (v.is_string()) return v.get<std::string>();
-  if (v.is_array()) {
+std::string value_text(const rsdiscovery::json::Value& v) {
+  if (v.IsNull()) return "";
+  if (v.IsString()) return std::string(v.GetString(), v.GetStringLength());
+  if (v.IsArray()) {
     std::vector<std::string> parts;
-    for (const auto& item : v) parts.push_back(value_text(item));
+    for (const auto& item : v.GetArray()) parts.push_back(value_text(item));
     return join(parts, ",");
   }
-  return v.dump();
+  return rsdiscovery::json::dump(v);
 }
 
 namespace {
 // The value at a dotted path ("server.addresses"), or nullptr.
-const nlohmann::json* at_path(const nlohmann::json& doc, const std::string& path) {
-  const nlohmann::json* v = &doc;
+const rsdiscovery::json::Value* at_path(const rsdiscovery::json::Value& doc, const std::string& path) {
+  const rsdiscovery::json::Value* v = &doc;
   std::size_t from = 0;
   for (;;) {
-    if (!v->is_object()) return nullptr;
     const auto dot = path.find('.', from);
-    const auto it = v->find(path.substr(from, dot == std::string::npos ? std::string::npos : dot - from));
-    if (it == v->end()) return nullptr;
-    v = &*it;
-    if (dot == std::string::npos) return v;
+    const auto key = std::string_view(path).substr(from, dot == std::string::npos ? std::string::npos : dot - from);
+    v = rsdiscovery::json::find(*v, key);
+    if (!v || dot == std::string::npos) return v;
     from = dot + 1;
   }
 }
@@ -102,18 +100,19 @@ Template::Template(const std::string& tmpl, std::vector<std::string> known) : kn
   if (!literal.empty()) pieces_.push_back({false, std::move(literal)});
 }
 
-void Template::check(const std::vector<nlohmann::json>& docs) const {
+void Template::check(const std::vector<const rsdiscovery::json::Value*>& docs) const {
   for (const auto& piece : pieces_) {
     if (!piece.field) continue;
     if (std::find(known_.begin(), known_.end(), piece.text) != known_.end()) continue;
-    if (std::any_of(docs.begin(), docs.end(), [&](const nlohmann::json& d) { return at_path(d, piece.text); }))
+    if (std::any_of(docs.begin(), docs.end(),
+                    [&](const rsdiscovery::json::Value* d) { return d && at_path(*d, piece.text); }))
       continue;
     throw UsageError("--format: unknown field '{" + piece.text + "}'; the fields are {" + join(known_, "}, {") +
                      "} (and any other key a document has)");
   }
 }
 
-std::string Template::render(const nlohmann::json& doc,
+std::string Template::render(const rsdiscovery::json::Value& doc,
                              const std::function<std::optional<std::string>(const std::string&)>& computed) const {
   std::string out;
   for (const auto& piece : pieces_) {

@@ -7,9 +7,13 @@
 #include <rapidjson/writer.h>
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 
 namespace rsdiscovery::json {
+
 namespace {
 
 // RapidJSON 1.1 takes the escape of a lone low surrogate ("\udc00") and writes the
@@ -162,6 +166,85 @@ std::optional<std::string> parse_stream(std::string_view text, Stream& stream, D
   return std::nullopt;
 }
 
+// A finite double laid out as nlohmann lays it out: in full from 1e-4 to below 1e15,
+// a whole one with ".0" ("0.001", "1500.0"), else with a signed exponent of two digits
+// or more ("1e-06", "1e+16"; RapidJSON writes "0.000001" and "10000000000000000.0").
+// The digits are the shortest that read back as the same double (std::to_chars);
+// nlohmann's Grisu2 picks the same ones but for a rare double, where its longer
+// digits name the same value.
+std::string nlohmann_layout(double d) {
+  if (d == 0) return std::signbit(d) ? "-0.0" : "0.0";
+  char buffer[64];
+  const auto written = std::to_chars(buffer, buffer + sizeof buffer, d, std::chars_format::scientific);
+  const std::string_view sci(buffer, static_cast<std::size_t>(written.ptr - buffer));  // "-1.5e+100"
+  const auto e = sci.find('e');
+  std::string digits;
+  for (const char c : sci.substr(0, e))
+    if (c >= '0' && c <= '9') digits += c;
+  const int exponent = std::stoi(std::string(sci.substr(e + 1)));
+  const int k = static_cast<int>(digits.size());
+  const int n = exponent + 1;  // where the point goes, counted from the first digit
+  std::string out = d < 0 ? "-" : "";
+  if (k <= n && n <= 15) {
+    out += digits + std::string(static_cast<std::size_t>(n - k), '0') + ".0";
+  } else if (0 < n && n <= 15) {
+    out += digits.substr(0, static_cast<std::size_t>(n)) + "." + digits.substr(static_cast<std::size_t>(n));
+  } else if (-4 < n && n <= 0) {
+    out += "0." + std::string(static_cast<std::size_t>(-n), '0') + digits;
+  } else {
+    out += digits.substr(0, 1) + (k > 1 ? "." + digits.substr(1) : "") + "e" + (exponent < 0 ? "-" : "+");
+    const int magnitude = exponent < 0 ? -exponent : exponent;
+    out += (magnitude < 10 ? "0" : "") + std::to_string(magnitude);
+  }
+  return out;
+}
+
+// A number and a string as nlohmann writes them, and so as the daemon's documents
+// have them: a double as nlohmann_layout says; a control character as \u001f, in
+// lowercase (RapidJSON: \u001F).
+template <class Base>
+class NlohmannForms : public Base {
+ public:
+  using Base::Base;
+
+  bool Double(double d) {
+    if (!std::isfinite(d)) return Base::Null();  // as nlohmann writes it
+    const std::string text = nlohmann_layout(d);
+    return Base::RawValue(text.data(), text.size(), rapidjson::kNumberType);
+  }
+
+  bool String(const char* text, rapidjson::SizeType length, bool copy = false) {
+    const std::string_view s(text, length);
+    const auto hex_escaped = [](char c) {
+      return static_cast<unsigned char>(c) < 0x20 && c != '\b' && c != '\f' && c != '\n' && c != '\r' && c != '\t';
+    };
+    if (std::none_of(s.begin(), s.end(), hex_escaped)) return Base::String(text, length, copy);  // the same
+    std::string out = "\"";
+    for (const char c : s) {
+      switch (c) {
+        case '"': out += "\\\""; break;
+        case '\\': out += "\\\\"; break;
+        case '\b': out += "\\b"; break;
+        case '\f': out += "\\f"; break;
+        case '\n': out += "\\n"; break;
+        case '\r': out += "\\r"; break;
+        case '\t': out += "\\t"; break;
+        default:
+          if (hex_escaped(c)) {
+            char escaped[8];
+            std::snprintf(escaped, sizeof escaped, "\\u%04x", static_cast<unsigned>(c));
+            out += escaped;
+          } else {
+            out += c;
+          }
+      }
+    }
+    out += '"';
+    return Base::RawValue(out.data(), out.size(), rapidjson::kStringType);
+  }
+  bool Key(const char* text, rapidjson::SizeType length, bool copy = false) { return String(text, length, copy); }
+};
+
 }  // namespace
 
 std::optional<std::string> parse(std::string_view text, Document& out) {
@@ -225,7 +308,7 @@ std::vector<std::string> texts(const Value* v) {
 
 std::string dump(const Value& v) {
   rapidjson::StringBuffer buffer;
-  rapidjson::Writer<rapidjson::StringBuffer> writer(buffer);
+  NlohmannForms<rapidjson::Writer<rapidjson::StringBuffer>> writer(buffer);
   v.Accept(writer);
   return std::string(buffer.GetString(), buffer.GetSize());
 }
@@ -233,7 +316,7 @@ std::string dump(const Value& v) {
 std::string dump(const Value& v, int indent) {
   if (indent < 0) return dump(v);
   rapidjson::StringBuffer buffer;
-  rapidjson::PrettyWriter<rapidjson::StringBuffer> writer(buffer);
+  NlohmannForms<rapidjson::PrettyWriter<rapidjson::StringBuffer>> writer(buffer);
   writer.SetIndent(' ', static_cast<unsigned>(indent));
   v.Accept(writer);
   return std::string(buffer.GetString(), buffer.GetSize());
@@ -241,7 +324,7 @@ std::string dump(const Value& v, int indent) {
 
 std::string quote(std::string_view text) {
   rapidjson::StringBuffer buffer;
-  rapidjson::Writer<rapidjson::StringBuffer> writer(buffer);
+  NlohmannForms<rapidjson::Writer<rapidjson::StringBuffer>> writer(buffer);
   writer.String(text.data(), static_cast<rapidjson::SizeType>(text.size()));
   return std::string(buffer.GetString(), buffer.GetSize());
 }

@@ -55,7 +55,8 @@ std::string text_or(const Value* v, std::string_view fallback = {});
 // `v` is not an array.
 std::vector<std::string> texts(const Value* v);
 
-// `v` written out: compactly, or laid out as nlohmann's dump(indent) lays it out.
+// `v` written out as nlohmann writes it, numbers and escapes too: compactly, or laid
+// out as its dump(indent) lays it out.
 std::string dump(const Value& v);
 std::string dump(const Value& v, int indent);
 // `text` as a JSON string literal, quotes included.

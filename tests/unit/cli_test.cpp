@@ -50,23 +50,51 @@ TEST(ParseIso8601, RefusesWhatIsNotADate) {
 }
 
 TEST(Template, NestedFieldsListsAndBraces) {
-  const auto doc = nlohmann::json::parse(R"({"serial": "123", "domain": 5, "recovery": false,
+  const auto doc = rsdiscovery::json::parse_or_null(R"({"serial": "123", "domain": 5, "recovery": false,
       "server": {"addresses": ["10.0.0.1", "10.0.0.2"], "participant-name": "srv"}, "warnings": []})");
+  ASSERT_TRUE(doc.IsObject());
   const rsdiscover::Template t("{serial}\\t{server.addresses} {domain} {recovery} {server.participant-name} "
                                "[{warnings}] [{usb.port-path}] {{x}}",
                                rsdiscover::device_fields());
-  t.check({doc});
+  t.check({&doc});
   EXPECT_EQ(t.render(doc), "123\t10.0.0.1,10.0.0.2 5 false srv [] [] {x}");
   EXPECT_EQ(rsdiscover::Template("{state}", {"state"}).render(doc, [](const std::string& f) {
     return f == "state" ? std::optional<std::string>("ok") : std::nullopt;
   }), "ok");
 }
 
+// Numbers and control characters laid out as the daemon writes them: RapidJSON's own
+// writer gives 0.000001, 10000000000000000.0 and \u001F. The digits are the shortest
+// that read back: 7.87e+21 where nlohmann's Grisu2 wrote 7.870000000000001e+21, the
+// same double.
+TEST(Template, NumbersAndEscapesAreWrittenAsTheDaemonWritesThem) {
+  const auto doc = rsdiscovery::json::parse_or_null(R"({"step": 1e-06, "big": 1e+16, "near": 7.870000000000001e+21,
+      "mid": 0.001, "whole": 1500.0, "range": [9.999999974752427e-07, 0.01], "o": {"k": "a\u001fb\n"},
+      "small": -0.0001, "neg": -2.5e-300, "zero": -0.0})");
+  ASSERT_TRUE(doc.IsObject());
+  const rsdiscover::Template t("{step} {big} {near} {mid} {whole} {range} {o} {small} {neg} {zero}",
+                              rsdiscover::device_fields());
+  t.check({&doc});
+  EXPECT_EQ(t.render(doc), "1e-06 1e+16 7.87e+21 0.001 1500.0 9.999999974752427e-07,0.01 "
+                           "{\"k\":\"a\\u001fb\\n\"} -0.0001 -2.5e-300 -0.0");
+  EXPECT_EQ(std::stod("7.87e+21"), 7.870000000000001e+21);
+}
+
+// A GUID or a name may hold what reads as a long exponent ("e2345"): only numbers are
+// refused for one.
+TEST(Template, AnExponentInAStringIsNoNumber) {
+  const auto doc = rsdiscovery::json::parse_or_null(R"({"guid": "010f78fd.1e2345ab", "name": "cube1234"})");
+  ASSERT_TRUE(doc.IsObject());
+  EXPECT_EQ(rsdiscover::Template("{guid} {name}", {}).render(doc), "010f78fd.1e2345ab cube1234");
+  EXPECT_TRUE(rsdiscovery::json::parse_or_null(R"({"guid": "x", "n": 1e12345})").IsNull());
+}
+
 TEST(Template, AnUnknownFieldNamesTheKnownOnes) {
-  const auto doc = nlohmann::json::parse(R"({"serial": "123", "custom": {"deep": 1}})");
+  const auto doc = rsdiscovery::json::parse_or_null(R"({"serial": "123", "custom": {"deep": 1}})");
+  ASSERT_TRUE(doc.IsObject());
   const rsdiscover::Template unknown("{seria}", rsdiscover::device_fields());
   try {
-    unknown.check({doc});
+    unknown.check({&doc});
     FAIL() << "no error";
   } catch (const rsdiscover::UsageError& e) {
     EXPECT_NE(std::string(e.what()).find("unknown field '{seria}'"), std::string::npos) << e.what();
@@ -75,7 +103,7 @@ TEST(Template, AnUnknownFieldNamesTheKnownOnes) {
   }
   // A key a document has, though undocumented, is a field.
   const rsdiscover::Template custom("{custom.deep}", rsdiscover::device_fields());
-  EXPECT_NO_THROW(custom.check({doc}));
+  EXPECT_NO_THROW(custom.check({&doc}));
   EXPECT_EQ(custom.render(doc), "1");
   EXPECT_THROW(rsdiscover::Template("{serial", {}), rsdiscover::UsageError);
   EXPECT_THROW(rsdiscover::Template("serial}", {}), rsdiscover::UsageError);
