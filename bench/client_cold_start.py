@@ -112,6 +112,11 @@ def main():
             ("list over HTTP", [cli, "--endpoint", f"http://127.0.0.1:{port}", "list"]),
             ("health", [cli, "--endpoint", ep, "health"]),
             ("--version (no request)", [cli, "--version"]),
+            # The floor of `list`: a bare C process asking the same (cmd_list.cpp's table fields).
+            ("bare C client (floor)", [os.path.join(args.build, "bench", "rsd-bench-cold-floor"), sock,
+                                       "/v1/devices?fields=" + "%2C".join(
+                                           ["name", "serial", "source", "sources", "domain", "usb", "host",
+                                            "server.addresses", "first-seen", "recovery", "warnings", "in-use"])]),
             (FLOOR, ["/bin/true"]),
         ] + ([("list (table), --compare", [args.compare, "--endpoint", ep, "list"])] if args.compare else []) + ([("curl --unix-socket /v1/devices", ["curl", "-sf", "--unix-socket", sock,
                                                   "http://localhost/v1/devices"])] if shutil.which("curl") else []))
