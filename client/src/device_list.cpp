@@ -16,6 +16,7 @@ namespace rsdiscovery::detail {
 namespace {
 
 namespace key = rsd::model::key;
+namespace part_key = rsd::model::part_key;
 using json::Value;
 
 [[noreturn]] void malformed(const std::string& what) {
@@ -71,10 +72,10 @@ bool take(const Value& v, ServerInfo& out) {
   ServerInfo s;
   std::string writer;
   const bool ok = whole(v, 0, [&](std::string_view k, const Value& value) {
-    if (k == "participant-guid") return took(take(value, s.participant_guid));
-    if (k == "participant-name") return took(take(value, s.participant_name));
-    if (k == "addresses") return took(take_strings(value, s.addresses));
-    if (k == "writer-guid") return took(take(value, writer));
+    if (k == part_key::participant_guid) return took(take(value, s.participant_guid));
+    if (k == part_key::participant_name) return took(take(value, s.participant_name));
+    if (k == part_key::addresses) return took(take_strings(value, s.addresses));
+    if (k == part_key::writer_guid) return took(take(value, writer));
     return -1;
   });
   if (ok) out = std::move(s);
@@ -87,13 +88,13 @@ bool take(const Value& v, UsbInfo& out) {
   std::string text;
   std::vector<std::string> nodes;
   const bool ok = whole(v, 6, [&](std::string_view k, const Value& value) {
-    if (k == "bus") return took(take(value, bus), true);
-    if (k == "address") return took(take(value, address), true);
-    if (k == "port-path") return took(take(value, u.port_path), true);
-    if (k == "speed") return took(take(value, u.speed), true);
-    if (k == "vid" || k == "pid") return took(take(value, text), true);
-    if (k == "speed-mbps") return took(value.IsNumber());
-    if (k == "usb-version" || k == "sysfs-path") return took(take(value, text));
+    if (k == part_key::bus) return took(take(value, bus), true);
+    if (k == part_key::address) return took(take(value, address), true);
+    if (k == part_key::port_path) return took(take(value, u.port_path), true);
+    if (k == part_key::speed) return took(take(value, u.speed), true);
+    if (k == part_key::vid || k == part_key::pid) return took(take(value, text), true);
+    if (k == part_key::speed_mbps) return took(value.IsNumber());
+    if (k == part_key::usb_version || k == part_key::sysfs_path) return took(take(value, text));
     if (k == key::device_nodes) return took(take_strings(value, nodes));
     return -1;
   });
@@ -110,9 +111,9 @@ std::optional<SharingHost> host_of(const Value& doc) {
   if (!v) return std::nullopt;
   SharingHost h;
   const bool ok = whole(*v, 2, [&](std::string_view k, const Value& value) {
-    if (k == "name") return took(take(value, h.name), true);
-    if (k == "addresses") return took(take_strings(value, h.addresses), true);
-    if (k == "participant-guid") return took(take(value, h.participant_guid));
+    if (k == part_key::name) return took(take(value, h.name), true);
+    if (k == part_key::addresses) return took(take_strings(value, h.addresses), true);
+    if (k == part_key::participant_guid) return took(take(value, h.participant_guid));
     return -1;
   });
   if (!ok) return std::nullopt;
@@ -124,13 +125,13 @@ std::optional<DeviceInUse> in_use_of(const Value& doc) {
   if (!v) return std::nullopt;
   DeviceInUse u;
   const bool ok = whole(*v, 2, [&](std::string_view k, const Value& value) {
-    if (k == "clients") {
+    if (k == part_key::clients) {
       int n = -1;
       const bool counted = take(value, n) && n >= 0;
       u.clients = static_cast<std::size_t>(std::max(n, 0));
       return took(counted, true);
     }
-    if (k == "streaming") return took(take_strings(value, u.streaming), true);
+    if (k == part_key::streaming) return took(take_strings(value, u.streaming), true);
     return -1;
   });
   if (!ok) return std::nullopt;

@@ -117,10 +117,10 @@ bool read(const JsonView& v, Server& out) {
   Server s;
   // Keys compared as string_view: by length first.
   if (!v.each_member([&](std::string_view k, const JsonView& value) {
-        if (k == "participant-guid") return read(value, s.participant_guid);
-        if (k == "participant-name") return read(value, s.participant_name);
-        if (k == "addresses") return read(value, s.addresses);
-        if (k == "writer-guid") return read(value, s.writer_guid);
+        if (k == part_key::participant_guid) return read(value, s.participant_guid);
+        if (k == part_key::participant_name) return read(value, s.participant_name);
+        if (k == part_key::addresses) return read(value, s.addresses);
+        if (k == part_key::writer_guid) return read(value, s.writer_guid);
         return false;
       }))
     return false;
@@ -133,15 +133,15 @@ bool read(const JsonView& v, Usb& out) {
   Usb u;
   int required = 0;
   if (!v.each_member([&](std::string_view k, const JsonView& value) {
-        if (k == "bus") return read(value, u.bus) && ++required;
-        if (k == "address") return read(value, u.address) && ++required;
-        if (k == "port-path") return read(value, u.port_path) && ++required;
-        if (k == "speed") return read(value, u.speed) && ++required;
-        if (k == "vid") return read(value, u.vid) && ++required;
-        if (k == "pid") return read(value, u.pid) && ++required;
-        if (k == "speed-mbps") return read(value, u.speed_mbps);
-        if (k == "usb-version") return read(value, u.usb_version);
-        if (k == "sysfs-path") return read(value, u.sysfs_path);
+        if (k == part_key::bus) return read(value, u.bus) && ++required;
+        if (k == part_key::address) return read(value, u.address) && ++required;
+        if (k == part_key::port_path) return read(value, u.port_path) && ++required;
+        if (k == part_key::speed) return read(value, u.speed) && ++required;
+        if (k == part_key::vid) return read(value, u.vid) && ++required;
+        if (k == part_key::pid) return read(value, u.pid) && ++required;
+        if (k == part_key::speed_mbps) return read(value, u.speed_mbps);
+        if (k == part_key::usb_version) return read(value, u.usb_version);
+        if (k == part_key::sysfs_path) return read(value, u.sysfs_path);
         if (k == key::device_nodes) return read(value, u.device_nodes);
         return false;
       }))
@@ -156,9 +156,9 @@ bool read(const JsonView& v, Host& out) {
   Host h;
   int required = 0;
   if (!v.each_member([&](std::string_view k, const JsonView& value) {
-        if (k == "name") return read(value, h.name) && ++required;
-        if (k == "addresses") return read(value, h.addresses) && ++required;
-        if (k == "participant-guid") return read(value, h.participant_guid);
+        if (k == part_key::name) return read(value, h.name) && ++required;
+        if (k == part_key::addresses) return read(value, h.addresses) && ++required;
+        if (k == part_key::participant_guid) return read(value, h.participant_guid);
         return false;
       }))
     return false;
@@ -173,8 +173,8 @@ bool read(const JsonView& v, InUse& out) {
   int required = 0;
   if (!v.each_member([&](std::string_view k, const JsonView& value) {
         int n = -1;
-        if (k == "clients") return read(value, n) && n >= 0 && (u.clients = static_cast<std::size_t>(n), ++required);
-        if (k == "streaming") return read(value, u.streaming) && ++required;
+        if (k == part_key::clients) return read(value, n) && n >= 0 && (u.clients = static_cast<std::size_t>(n), ++required);
+        if (k == part_key::streaming) return read(value, u.streaming) && ++required;
         return false;
       }))
     return false;
@@ -259,35 +259,35 @@ bool Device::named_by(std::string_view k) const {
 
 json to_json(const Server& s) {
   json out = json::object();
-  if (s.participant_guid) out["participant-guid"] = *s.participant_guid;
-  if (s.participant_name) out["participant-name"] = *s.participant_name;
-  if (s.addresses) out["addresses"] = *s.addresses;
-  if (s.writer_guid) out["writer-guid"] = *s.writer_guid;
+  if (s.participant_guid) out[part_key::participant_guid] = *s.participant_guid;
+  if (s.participant_name) out[part_key::participant_name] = *s.participant_name;
+  if (s.addresses) out[part_key::addresses] = *s.addresses;
+  if (s.writer_guid) out[part_key::writer_guid] = *s.writer_guid;
   return out;
 }
 
 json to_json(const Host& h) {
-  json out = {{"name", h.name}, {"addresses", h.addresses}};
-  if (h.participant_guid) out["participant-guid"] = *h.participant_guid;
+  json out = {{part_key::name, h.name}, {part_key::addresses, h.addresses}};
+  if (h.participant_guid) out[part_key::participant_guid] = *h.participant_guid;
   return out;
 }
 
-json to_json(const InUse& u) { return {{"clients", u.clients}, {"streaming", u.streaming}}; }
+json to_json(const InUse& u) { return {{part_key::clients, u.clients}, {part_key::streaming, u.streaming}}; }
 
 namespace {
 
 json usb_json(const Usb& u) {
-  json out = {{"bus", u.bus},       {"address", u.address}, {"port-path", u.port_path},
-              {"speed", u.speed},   {"vid", u.vid},         {"pid", u.pid}};
+  json out = {{part_key::bus, u.bus},       {part_key::address, u.address}, {part_key::port_path, u.port_path},
+              {part_key::speed, u.speed},   {part_key::vid, u.vid},         {part_key::pid, u.pid}};
   if (u.speed_mbps) {
     // 5000, not 5000.0: what the kernel's sysfs says, and what a reader compares with.
     if (std::floor(*u.speed_mbps) == *u.speed_mbps && std::fabs(*u.speed_mbps) < 1e15)
-      out["speed-mbps"] = static_cast<std::int64_t>(*u.speed_mbps);
+      out[part_key::speed_mbps] = static_cast<std::int64_t>(*u.speed_mbps);
     else
-      out["speed-mbps"] = *u.speed_mbps;
+      out[part_key::speed_mbps] = *u.speed_mbps;
   }
-  if (u.usb_version) out["usb-version"] = *u.usb_version;
-  if (u.sysfs_path) out["sysfs-path"] = *u.sysfs_path;
+  if (u.usb_version) out[part_key::usb_version] = *u.usb_version;
+  if (u.sysfs_path) out[part_key::sysfs_path] = *u.sysfs_path;
   if (!u.device_nodes.empty()) out[key::device_nodes] = u.device_nodes;
   return out;
 }

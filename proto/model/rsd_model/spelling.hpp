@@ -11,8 +11,8 @@
 
 namespace rsd::model {
 
-// Every key the daemon writes at the top level of a device, and inside "server" and
-// "usb". Nothing else in the daemon or the client spells them.
+// Every key the daemon writes at the top level of a device. Nothing else in the
+// daemon or the client spells them.
 namespace key {
 inline constexpr const char* id = "id";
 inline constexpr const char* source = "source";
@@ -44,6 +44,26 @@ inline constexpr const char* ready_stage = "ready-stage";
 // looks for among the processes' open files).
 inline constexpr const char* device_nodes = "device-nodes";
 }  // namespace key
+
+// The keys inside a device's "server", "usb", "host" and "in-use".
+namespace part_key {
+inline constexpr const char* participant_guid = "participant-guid";
+inline constexpr const char* participant_name = "participant-name";
+inline constexpr const char* addresses = "addresses";
+inline constexpr const char* writer_guid = "writer-guid";
+inline constexpr const char* bus = "bus";
+inline constexpr const char* address = "address";
+inline constexpr const char* port_path = "port-path";
+inline constexpr const char* speed = "speed";
+inline constexpr const char* vid = "vid";
+inline constexpr const char* pid = "pid";
+inline constexpr const char* speed_mbps = "speed-mbps";
+inline constexpr const char* usb_version = "usb-version";
+inline constexpr const char* sysfs_path = "sysfs-path";
+inline constexpr const char* name = "name";
+inline constexpr const char* clients = "clients";
+inline constexpr const char* streaming = "streaming";
+}  // namespace part_key
 
 // A domain's entry of /v1/domains and /healthz (status.hpp).
 namespace status_key {
