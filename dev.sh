@@ -156,8 +156,8 @@ case "${1:-}" in
     build build-asan -DRSD_SANITIZE=ON -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_FLAGS_DEBUG="-O1 -g1" \
       -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1"
     # libFuzzer binaries (clang, ASan + UBSan): only the fuzz targets and what they link.
-    build_targets build-fuzz "fuzz_device_info fuzz_request fuzz_api_values fuzz_config fuzz_shared_usb fuzz_ros_discovery" \
-      -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DRSD_LIBFUZZER=ON -DRSD_SANITIZE=ON -DRSD_BUILD_CLIENT=OFF
+    build_targets build-fuzz "fuzz_device_info fuzz_request fuzz_api_values fuzz_config fuzz_shared_usb fuzz_ros_discovery fuzz_client_documents" \
+      -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DRSD_LIBFUZZER=ON -DRSD_SANITIZE=ON -DRSD_BUILD_CLIENT=ON
     # ThreadSanitizer (tests/tsan/README.md): the daemon and the API harness (and the CLI
     # some of those suites drive; its own threads are not what is looked at).
     build_targets build-tsan "rs-discoveryd api_harness rs-discover" -DRSD_TSAN=ON

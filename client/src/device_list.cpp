@@ -188,41 +188,38 @@ Device device_from_json(const Value& doc, std::string text) {
 
 namespace {
 
-// Each device's text from the spans the parse noted in `original` (the body before
-// the parse rewrote it), each checked to be a whole {...}; else found by a scan.
-std::vector<std::string> device_texts(std::string_view original,
+// Each device's text from the spans the parse noted in the body, each checked to be a
+// whole {...}; else found by a scan.
+std::vector<std::string> device_texts(std::string_view body,
                                       const std::vector<std::pair<std::size_t, std::size_t>>& spans) {
   std::vector<std::string> texts;
   texts.reserve(spans.size());
   for (auto [start, end] : spans) {
-    if (start < original.size() && original[start] != '{' && start > 0 && original[start - 1] == '{') --start;
-    if (end < original.size() && original[end] == '}') ++end;
-    if (start >= end || end > original.size() || original[start] != '{' || original[end - 1] != '}') {
+    if (start < body.size() && body[start] != '{' && start > 0 && body[start - 1] == '{') --start;
+    if (end < body.size() && body[end] == '}') ++end;
+    if (start >= end || end > body.size() || body[start] != '{' || body[end - 1] != '}') {
       texts.clear();
-      for (auto text : array_member_elements(original, "devices")) texts.emplace_back(text);
+      for (auto text : array_member_elements(body, "devices")) texts.emplace_back(text);
       return texts;
     }
-    texts.emplace_back(original.substr(start, end - start));
+    texts.emplace_back(body.substr(start, end - start));
   }
   return texts;
 }
 
 }  // namespace
 
-std::optional<std::string> read_device_list(std::string& body, const std::string& path, DeviceList& out) {
-  // Each device's text as the daemon sent it is cut from this copy: the parse
-  // rewrites the body.
-  const std::string original = body;
+std::optional<std::string> read_device_list(const std::string& body, const std::string& path, DeviceList& out) {
   json::Document doc;
   std::vector<std::pair<std::size_t, std::size_t>> spans;
-  if (auto problem = json::parse_in_place(body, doc, "devices", &spans)) {
+  if (auto problem = json::parse(body, doc, "devices", &spans)) {
     if (problem->find("nested") != std::string::npos) return "GET " + path + " returned " + *problem;
     return "GET " + path + " did not return a JSON object";
   }
   if (!doc.IsObject()) return "GET " + path + " did not return a JSON object";
   const auto* devices = json::find(doc, "devices");
   if (!devices || !devices->IsArray()) return "no \"devices\" array";
-  auto texts = device_texts(original, spans);
+  auto texts = device_texts(body, spans);
   const bool texts_fit = texts.size() == devices->Size();
   out.devices.clear();
   out.devices.reserve(devices->Size());

@@ -25,9 +25,8 @@ namespace rsdiscovery::detail {
 Device device_from_json(const json::Value& doc, std::string text = {});
 // GET `path`'s reply (a /v1/devices document) into `out`: each device with its text
 // as sent. A problem with the document is returned, said as for a user; a device
-// without an id throws Error(malformed_reply). `body` is parsed in place: what is
-// left of it means nothing.
-std::optional<std::string> read_device_list(std::string& body, const std::string& path, DeviceList& out);
+// without an id throws Error(malformed_reply).
+std::optional<std::string> read_device_list(const std::string& body, const std::string& path, DeviceList& out);
 Description description_from_json(const json::Value& doc, std::string text = {});
 DomainStatus domain_from_json(const json::Value& doc);
 Health health_from_json(const json::Value& doc);

@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstdlib>
+#include <system_error>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -46,7 +48,25 @@ class BoundedBuilder {
   bool Int64(std::int64_t i) { return doc_.Int64(i); }
   bool Uint64(std::uint64_t u) { return doc_.Uint64(u); }
   bool Double(double d) { return doc_.Double(d); }
-  bool RawNumber(const char* str, rapidjson::SizeType length, bool copy) { return doc_.RawNumber(str, length, copy); }
+  // Every number comes here as its text (kParseNumbersAsStringsFlag: see kFlags).
+  bool RawNumber(const char* str, rapidjson::SizeType length, bool) {
+    const std::string_view t(str, length);
+    if (t.find_first_of(".eE") == std::string_view::npos) {  // a whole number, when it fits 64 bits
+      std::int64_t i = 0;
+      std::uint64_t u = 0;
+      if (t.front() == '-' && std::from_chars(t.data(), t.data() + t.size(), i).ec == std::errc()) return doc_.Int64(i);
+      if (t.front() != '-' && std::from_chars(t.data(), t.data() + t.size(), u).ec == std::errc()) return doc_.Uint64(u);
+    }
+    double d = 0;
+    const auto [end, error] = std::from_chars(t.data(), t.data() + t.size(), d);
+    if (error == std::errc::result_out_of_range) {
+      // Too small for a double reads as nlohmann reads it (0, or the nearest subnormal);
+      // too large is refused, as nlohmann refuses it.
+      d = std::strtod(std::string(t).c_str(), nullptr);
+      return std::isfinite(d) && doc_.Double(d);
+    }
+    return error == std::errc() && end == t.data() + t.size() && doc_.Double(d);
+  }
   bool String(const char* str, rapidjson::SizeType length, bool copy) {
     return !has_surrogate(str, length) && doc_.String(str, length, copy);
   }
@@ -87,43 +107,6 @@ class BoundedBuilder {
   bool in_spans_ = false;
 };
 
-// RapidJSON 1.1.0 as bookworm ships it (1.1.0+dfsg2-7.1) adds a negative exponent of
-// nine digits to the count of a fraction's digits in an int, which a fraction of some
-// two billion digits underflows (CVE-2024-38517; trixie's 7.4 is patched). Nothing the
-// daemon writes has an exponent of more than three digits (it writes doubles the
-// shortest way), so a text with a number that has one is refused before RapidJSON
-// meets it. Inside strings such letters and digits are common (GUIDs are hex).
-bool has_long_exponent(std::string_view text) {
-  const auto digit = [&](std::size_t j) { return j < text.size() && text[j] >= '0' && text[j] <= '9'; };
-  // Four digits after an 'e' or 'E' and an optional sign; memchr to each letter (a
-  // loop over every byte was a seventh of a cold list's instructions).
-  std::vector<std::size_t> suspects;
-  for (const char letter : {'e', 'E'}) {
-    for (auto i = text.find(letter); i != std::string_view::npos; i = text.find(letter, i + 1)) {
-      std::size_t j = i + 1;
-      if (j < text.size() && (text[j] == '+' || text[j] == '-')) ++j;
-      if (digit(j) && digit(j + 1) && digit(j + 2) && digit(j + 3)) suspects.push_back(i);
-    }
-  }
-  if (suspects.empty()) return false;
-  std::sort(suspects.begin(), suspects.end());
-  // Which suspects stand in a string: the quotes up to each, from quote to quote.
-  std::size_t scanned = 0;
-  bool in_string = false;
-  for (const std::size_t at : suspects) {
-    while (const void* q = std::memchr(text.data() + scanned, '"', at - scanned)) {
-      const auto i = static_cast<std::size_t>(static_cast<const char*>(q) - text.data());
-      std::size_t slashes = 0;
-      while (in_string && i > slashes && text[i - 1 - slashes] == '\\') ++slashes;
-      if (slashes % 2 == 0) in_string = !in_string;
-      scanned = i + 1;
-    }
-    scanned = at;
-    if (!in_string) return true;
-  }
-  return false;
-}
-
 // RapidJSON checks UTF-8 byte by byte (a quarter of a cold list's instructions); text
 // of ASCII alone, the usual one, cannot be invalid and skips it.
 bool is_ascii(std::string_view text) {
@@ -138,8 +121,13 @@ bool is_ascii(std::string_view text) {
   return (high & 0x8080808080808080ULL) == 0;
 }
 
-// Iterative, so the parse itself never recurses; full precision, as nlohmann reads.
-constexpr unsigned kFlags = rapidjson::kParseIterativeFlag | rapidjson::kParseFullPrecisionFlag;
+// Iterative, so the parse itself never recurses. Numbers are converted by
+// std::from_chars (BoundedBuilder::RawNumber), exactly, as nlohmann's strtod does, and
+// never by RapidJSON 1.1.0 as bookworm ships it (1.1.0+dfsg2-7.1): it adds a negative
+// exponent of ten digits to the count of a fraction's digits in an int, which
+// underflows (CVE-2024-38517; trixie's 7.4 is patched), and its full-precision strtod
+// shifts by the leading zeros of a zero significand (0e-300), which is undefined.
+constexpr unsigned kFlags = rapidjson::kParseIterativeFlag | rapidjson::kParseNumbersAsStringsFlag;
 
 template <unsigned Flags, class Stream>
 std::optional<std::string> parse_stream(std::string_view text, Stream& stream, Document& out,
@@ -148,7 +136,6 @@ std::optional<std::string> parse_stream(std::string_view text, Stream& stream, D
   // A NUL ends the parse as the end of the text would; JSON has none outside strings,
   // nor raw inside them.
   if (std::memchr(text.data(), '\0', text.size())) return "not JSON (a NUL byte)";
-  if (has_long_exponent(text)) return "not JSON from rs-discoveryd (a number with an exponent of 4 digits or more)";
   BoundedBuilder<Stream> builder(out, stream, spans_of, spans);
   rapidjson::Reader reader;
   const bool ascii = is_ascii(text);
@@ -247,15 +234,10 @@ class NlohmannForms : public Base {
 
 }  // namespace
 
-std::optional<std::string> parse(std::string_view text, Document& out) {
+std::optional<std::string> parse(std::string_view text, Document& out, std::string_view spans_of,
+                                 std::vector<std::pair<std::size_t, std::size_t>>* spans) {
   rapidjson::MemoryStream stream(text.data(), text.size());
-  return parse_stream<kFlags>(text, stream, out, {}, nullptr);
-}
-
-std::optional<std::string> parse_in_place(std::string& text, Document& out, std::string_view spans_of,
-                                          std::vector<std::pair<std::size_t, std::size_t>>* spans) {
-  rapidjson::InsituStringStream stream(text.data());
-  return parse_stream<kFlags | rapidjson::kParseInsituFlag>(text, stream, out, spans_of, spans);
+  return parse_stream<kFlags>(text, stream, out, spans_of, spans);
 }
 
 Document parse_or_null(std::string_view text) {

@@ -27,14 +27,13 @@ inline constexpr int kMaxDepth = 64;
 
 // Parses `text` as one JSON value, as strictly as nlohmann does (numbers beyond a
 // double, lone surrogates, control characters, invalid UTF-8, trailing text and NULs
-// are refused; unit-tested). Returns why not, said for a user, or nothing.
-std::optional<std::string> parse(std::string_view text, Document& out);
-// The same, in place: `text` is rewritten and the strings of `out` point into it, so
-// it must outlive `out`. When `spans_of` is given, the [start, end) in `text` of each
-// object in the array that the top-level member of that name holds is noted in
-// `spans` (what device_list.cpp cuts each device's text by).
-std::optional<std::string> parse_in_place(std::string& text, Document& out, std::string_view spans_of = {},
-                                          std::vector<std::pair<std::size_t, std::size_t>>* spans = nullptr);
+// are refused; unit-tested). Returns why not, said for a user, or nothing. When
+// `spans_of` is given, the [start, end) in `text` of each object in the array that the
+// top-level member of that name holds is noted in `spans` (what device_list.cpp cuts
+// each device's text by). Not in place: bookworm's RapidJSON (1.1.0) reads a number's
+// text from the wrong place in place.
+std::optional<std::string> parse(std::string_view text, Document& out, std::string_view spans_of = {},
+                                 std::vector<std::pair<std::size_t, std::size_t>>* spans = nullptr);
 // A Null document when `text` is not JSON, nothing said why (for text the daemon
 // wrote and the library already checked, such as Device::json).
 Document parse_or_null(std::string_view text);

@@ -5,14 +5,6 @@
 
 namespace rsd::model {
 
-namespace {
-
-
-constexpr const char* kClient = "a client entry";
-constexpr const char* kClients = "a device's clients";
-
-}  // namespace
-
 InUse summary_of(const DeviceClients& c) {
   InUse u;
   u.clients = c.clients.size();

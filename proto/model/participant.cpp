@@ -7,9 +7,6 @@ namespace rsd::model {
 
 namespace {
 
-
-constexpr const char* kWhat = "a participant entry";
-
 int hex_digit(char c) {
   if (c >= '0' && c <= '9') return c - '0';
   if (c >= 'a' && c <= 'f') return c - 'a' + 10;
