@@ -35,7 +35,12 @@ LOSS_S = float(os.environ.get("RSD_LOSS_SECONDS", "25"))
 LOSS_PERCENT = int(os.environ.get("RSD_LOSS_PERCENT", "30"))
 BURST_S = float(os.environ.get("RSD_LOSS_BURST", "4"))
 AFTER_BURST_S = 10.0  # random loss again after the burst: the return is made on it
-BACK_WITHIN_S = 2.0
+# Listed within 2 s of its device-info writer matching, plus one heartbeat period of
+# that writer: on the lossy link the server's first device-info may be lost, and a
+# Fast DDS writer repairs it at its next periodic heartbeat (every 3 s by default).
+# Measured: 0.02-0.2 s when the sample came through, 2.41 s once when it did not.
+FAST_DDS_HEARTBEAT_S = 3.0
+BACK_WITHIN_S = 2.0 + FAST_DDS_HEARTBEAT_S
 # Without removal-grace: absent at most 10 % of the minute (6 s) in the random
 # loss, however short the run (one lease lost costs about 3 s of it).
 ABSENT_AT_MOST_S = 0.10 * 60
@@ -161,7 +166,7 @@ def test_loss_is_explained_and_survived(free_domain, daemon, realdds_server, two
     plain_events.close()
     graced_events.close()
 
-    # The plain daemon: every removal explained, each return within 2 s of the hearing.
+    # The plain daemon: every removal explained, each return soon after the hearing.
     removals = [e for e in plain_seen if e["event"] == "removed"]
     assert all(e["json"]["reason"] == "lease-expired" for e in removals), removals
     changes = [(e["t"], e["event"] == "added") for e in plain_seen if e["event"] in ("added", "removed")]
