@@ -75,8 +75,8 @@ std::size_t skip_space(std::string_view text, std::size_t i) {
 }  // namespace
 
 // Why by hand: writing each device back out of the parsed tree (dump) was a large
-// part of a cold `rs-discover list` (callgrind). nlohmann 3.11 does not say where a
-// value lies in its input.
+// part of a cold `rs-discover list` (callgrind). The list reader cuts each device's
+// text at the spans its parse notes (device_list.cpp); this scan is its fallback.
 std::vector<std::string_view> array_member_elements(std::string_view text, std::string_view key) {
   std::vector<std::string_view> out;
   std::size_t i = skip_space(text, 0);
