@@ -61,9 +61,17 @@ struct Connection : Pollable {
 };
 
 // Sends what `c` has pending, without blocking: its bytes, then the body from its
-// memfd (through this thread's splice pipe on a Unix socket). false: the
-// connection is dead (and `broken` set).
+// memfd (through this thread's splice pipe on a Unix socket), until the socket is
+// full or the turn's bytes are out. false: the connection is dead (and `broken` set).
 bool send_pending(Connection& c);
+
+// A turn's bytes. A reader as fast as the loop never makes its socket say EAGAIN:
+// without an end to the turn, a large body (a list of thousands of cameras) went
+// out whole while the loop's other connections waited, and their requests made the
+// tail. What is left waits for the next EPOLLOUT (level-triggered, so at once),
+// after the others' turns. 64 KiB turns cost more loop turns than they saved, 1 MiB
+// ones kept most of the tail (the bench's scale10k, commit body).
+constexpr std::size_t kSendTurnBytes = 256 * 1024;
 
 // httplib's request context of the request being served on this thread (set by
 // the reactor around httplib's processing; httplib_seam.cpp).

@@ -86,7 +86,9 @@ class SplicePipe {
 
 bool send_pending(Connection& c) {
   Outbox& o = c.http.out();
+  std::size_t turn = 0;
   while (o.pending() > 0) {
+    if (turn >= kSendTurnBytes) return true;
     ssize_t n;
     SplicePipe* pipe = nullptr;
     if (!c.listener->http && o.file_left > 0 && o.out_pending() > 0 && o.out_pending() <= SplicePipe::kMaxHead)
@@ -108,13 +110,16 @@ bool send_pending(Connection& c) {
       if (n > 0) o.out_pos += static_cast<std::size_t>(n);
     } else {  // the socket is non-blocking: sendfile takes what fits and says so
       auto offset = static_cast<off_t>(o.file_offset);
-      n = ::sendfile(c.fd, o.file->fd(), &offset, o.file_left);
+      n = ::sendfile(c.fd, o.file->fd(), &offset, std::min(o.file_left, kSendTurnBytes - turn));
       if (n > 0) {
         o.file_offset += static_cast<std::size_t>(n);
         o.file_left -= static_cast<std::size_t>(n);
       }
     }
-    if (n > 0) continue;
+    if (n > 0) {
+      turn += static_cast<std::size_t>(n);
+      continue;
+    }
     if (n < 0 && errno == EINTR) continue;
     if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return true;
     o.broken = true;

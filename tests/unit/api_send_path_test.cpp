@@ -101,6 +101,45 @@ TEST(SendPending, AHeadAndItsBodyArriveWholeAndInOrderOnEitherPath) {
   }
 }
 
+// A client that keeps up leaves its socket room: the turn, not EAGAIN, ends a call,
+// so a large body goes out in turns between the loop's other connections.
+TEST(SendPending, ALargeBodyGoesOutInTurnsThoughTheSocketHasRoom) {
+  const auto body = std::make_shared<const SharedBody>(body_pattern(4 * 1024 * 1024));
+  const std::string head = "HTTP/1.1 200 OK\r\nContent-Length: 4194304\r\n\r\n";
+  LoopListener unix_socket, tcp;
+  tcp.http = true;
+  for (const auto* listener : {&unix_socket, &tcp}) {
+    Pair pair;
+    // Room for far more than a turn (as root, past net.core.wmem_max; the suite runs
+    // as root): only the turn can end the first call.
+    const int room = 8 * 1024 * 1024;
+    if (::setsockopt(pair.daemon, SOL_SOCKET, SO_SNDBUFFORCE, &room, sizeof room) != 0)
+      ::setsockopt(pair.daemon, SOL_SOCKET, SO_SNDBUF, &room, sizeof room);
+    int got_room = 0;
+    socklen_t len = sizeof got_room;
+    ::getsockopt(pair.daemon, SOL_SOCKET, SO_SNDBUF, &got_room, &len);
+    ASSERT_GE(got_room, 4 * static_cast<int>(rsd::api::kSendTurnBytes))
+        << "this test needs a send buffer of some turns: run it as root or raise net.core.wmem_max";
+    const rsd::api::ConnectionOptions options;
+    Connection c(pair.daemon, *listener, options, Clock::now(), false);
+    auto& o = c.http.out();
+    o.out = head;
+    o.file = body;
+    o.file_left = body->bytes().size();
+    const auto total = o.pending();
+    ASSERT_TRUE(rsd::api::send_pending(c));
+    const auto first = total - o.pending();
+    EXPECT_GT(first, 0u) << listener->http;
+    EXPECT_LE(first, rsd::api::kSendTurnBytes + head.size()) << listener->http;
+    ASSERT_TRUE(rsd::api::send_pending(c));  // the client read nothing: the room was there
+    EXPECT_GT(total - o.pending(), first) << "the first call ended on a full socket, http=" << listener->http;
+    std::string got = pair.read_available();
+    while (o.pending() > 0 && rsd::api::send_pending(c)) got += pair.read_available();
+    got += pair.read_available();
+    EXPECT_TRUE(got == head + body->bytes()) << "bytes lost or out of order, http=" << listener->http;
+  }
+}
+
 TEST(SendPending, AClientGoneMarksTheConnectionBroken) {
   Pair pair;
   LoopListener listener;
