@@ -2,6 +2,8 @@
 #include "common.hpp"
 
 #include <chrono>
+#include <cstring>
+#include <string_view>
 
 namespace rsdiscover {
 namespace {
@@ -9,7 +11,10 @@ namespace {
 // ", in use" (", in use: Depth, Color" while streamed): a network camera with a client
 // (its "in-use"; `rs-discover clients ID` says who). Parsed only when it is there.
 std::string in_use_marker(const rsdiscovery::Device& d) {
-  if (d.json.find("\"in-use\"") == std::string::npos) return "";
+  // memmem: string::find looks for the first quote with memchr, and a document has
+  // one every few bytes (a tenth of a cold list's instructions, callgrind).
+  static constexpr std::string_view kKey = "\"in-use\"";
+  if (!memmem(d.json.data(), d.json.size(), kKey.data(), kKey.size())) return "";
   const auto doc = rsdiscovery::json::parse_or_null(d.json);
   const auto* in_use = rsdiscovery::json::find(doc, "in-use");
   if (!in_use || !in_use->IsObject()) return "";

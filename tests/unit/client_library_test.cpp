@@ -405,7 +405,7 @@ TEST(DeviceList, RefusesWhatIsNotJson) {
   const std::string bad_utf8[] = {"\xff", "\xc0\xaf", "\xed\xa0\x80", "caf\xc3"};  // stray, overlong, surrogate, cut
   std::vector<std::string> bodies = {
       "", "{", R"({"devices":[]} x)", R"({"devices":[1e400]})", R"({"devices":["\ud800"]})",
-      R"({"devices":["\udc00"]})", R"({"devices":[{"\ud83d\ude00\ude00":1}]})",
+      R"({"devices":["\udc00"]})", R"({"devices":[{"\ud83d\ude00\ude00":1}]})", R"({"devices":["\\\udc00"]})",
       "{\"devices\":[\"a\x01\"]}", R"({"devices":[{"id":"a",}]})", R"({"devices":[NaN]})", R"({'devices':[]})",
       R"({"devices":[01]})"};
   for (const auto& b : bad_utf8) bodies.push_back(R"({"devices":[{"id":"x","name":")" + b + R"("}]})");
@@ -422,6 +422,12 @@ TEST(DeviceList, RefusesWhatIsNotJson) {
   // A NUL, which JSON never has (nlohmann takes it for the end of the text).
   std::string nul("{\"devices\":[]}\0", 15);
   EXPECT_EQ(detail::read_device_list(nul, "/v1/devices", out), "GET /v1/devices did not return a JSON object");
+  // An escaped backslash before "udc00" is text, not an escape (the surrogate check
+  // looks only where a \u escape is).
+  std::string escaped_backslash = R"({"devices":[{"id":"a\\udc00"}]})";
+  ASSERT_EQ(detail::read_device_list(escaped_backslash, "/v1/devices", out), std::nullopt);
+  ASSERT_EQ(out.devices.size(), 1u);
+  EXPECT_EQ(out.devices[0].id, "a\\udc00");
   // JSON, but not the list: said as what is wrong.
   for (const auto& [text, said] : std::vector<std::pair<std::string, std::string>>{
            {"[]", "GET /v1/devices did not return a JSON object"},
