@@ -12,7 +12,7 @@ namespace {
 // (its "in-use"; `rs-discover clients ID` says who). Parsed only when it is there.
 std::string in_use_marker(const rsdiscovery::Device& d) {
   // memmem: string::find looks for the first quote with memchr, and a document has
-  // one every few bytes (a tenth of a cold list's instructions, callgrind).
+  // one every few bytes.
   static constexpr std::string_view kKey = "\"in-use\"";
   if (!memmem(d.json.data(), d.json.size(), kKey.data(), kKey.size())) return "";
   const auto doc = rsdiscovery::json::parse_or_null(d.json);

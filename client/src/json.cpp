@@ -123,12 +123,12 @@ bool is_ascii(std::string_view text) {
   return (high & 0x8080808080808080ULL) == 0;
 }
 
-// Recursive, which RapidJSON does faster than its iterative parse (4 % of a cold
-// list's instructions): the builder refuses the object or array that would open
-// level kMaxDepth + 1 before the reader goes into it, so the parse never goes
-// deeper than that, whatever the text. Numbers are converted by
-// std::from_chars (BoundedBuilder::RawNumber), exactly, as nlohmann's strtod does, and
-// never by RapidJSON 1.1.0 as bookworm ships it (1.1.0+dfsg2-7.1): it adds a negative
+// Recursive, which RapidJSON does in fewer instructions than its iterative parse:
+// the builder refuses the object or array that would open level kMaxDepth + 1
+// before the reader goes into it, so the parse never goes deeper than that,
+// whatever the text. Numbers are converted by std::from_chars
+// (BoundedBuilder::RawNumber), exactly, as nlohmann's strtod does, and never by
+// RapidJSON 1.1.0 as bookworm ships it (1.1.0+dfsg2-7.1): it adds a negative
 // exponent of ten digits to the count of a fraction's digits in an int, which
 // underflows (CVE-2024-38517; trixie's 7.4 is patched), and its full-precision strtod
 // shifts by the leading zeros of a zero significand (0e-300), which is undefined.

@@ -69,8 +69,8 @@ bool send_pending(Connection& c);
 // without an end to the turn, a large body (a list of thousands of cameras) went
 // out whole while the loop's other connections waited, and their requests made the
 // tail. What is left waits for the next EPOLLOUT (level-triggered, so at once),
-// after the others' turns. 64 KiB turns cost more loop turns than they saved, 1 MiB
-// ones kept most of the tail (the bench's scale10k, commit body).
+// after the others' turns. Smaller turns cost more loop turns than they save; larger
+// ones bring the tail back (bench/ scale10k).
 constexpr std::size_t kSendTurnBytes = 256 * 1024;
 
 // httplib's request context of the request being served on this thread (set by
