@@ -21,6 +21,7 @@
 
 #include <netinet/in.h>
 #include <netinet/tcp.h>
+#include <sched.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -172,7 +173,14 @@ void ApiServer::Impl::start(const ApiOptions& opts) {
                    "rs-discoveryd.socket') and make \"http\" the same, or leave it out");
 
     LoopOptions lo;
-    lo.threads = opts.loop_threads;
+    if (opts.loop_threads > 0) {
+      lo.threads = opts.loop_threads;
+    } else {  // the CPUs this process may run on (its affinity, as systemd's CPUAffinity= sets it)
+      cpu_set_t cpus;
+      const int n = sched_getaffinity(0, sizeof cpus, &cpus) == 0 ? CPU_COUNT(&cpus)
+                                                                    : static_cast<int>(std::thread::hardware_concurrency());
+      lo.threads = loop_threads_for(n);
+    }
     lo.blocking_threads = opts.blocking_threads;
     lo.max_connections = opts.max_connections;
     lo.client_timeout = std::chrono::milliseconds(opts.client_timeout_ms);

@@ -31,7 +31,7 @@ struct ApiOptions {
 
   // Connections (see server_loop.hpp): a few event loops serve every client; a
   // client never holds a thread, so these bound memory, not threads.
-  int loop_threads = 2;
+  int loop_threads = 0;              // 0: loop_threads_for(the CPUs the daemon may use)
   int blocking_threads = 4;          // Camera Discovery requests wait on these
   std::size_t max_connections = 4096;  // over both listeners; beyond, a 503 at once
   int client_timeout_ms = 10000;     // to send a begun request, to take a response

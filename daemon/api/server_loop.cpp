@@ -4,12 +4,16 @@
 
 #include "api/reactor.hpp"
 
+#include <algorithm>
+
 #include <sys/epoll.h>
 #include <sys/eventfd.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
 namespace rsd::api {
+
+int loop_threads_for(int cpus) { return std::clamp(cpus / 2, 1, 2); }
 
 void ServerLoop::start(std::vector<LoopListener> listeners) {
   std::lock_guard lock(impl_->lifecycle);

@@ -63,6 +63,13 @@ struct RequestContext {
   static RequestContext* current();
 };
 
+// The event loops for `cpus` CPUs: one for every two, one at least and two at most.
+// The daemon shares its host with the programs it answers (a robot's, a bench's):
+// on two cores, two loops busy with 64 connections took the core their clients
+// needed and lengthened the clients' tail, and one loop still answered more
+// requests than nginx's two workers (bench/ http).
+int loop_threads_for(int cpus);
+
 struct LoopOptions {
   int threads = 2;                // event loops; each request is served on one
   int blocking_threads = 4;       // for routes that wait (Camera Discovery)

@@ -180,3 +180,14 @@ TEST(Reactor, StopAnswersEveryConnectionWithARequestInFlight) {
 }
 
 }  // namespace
+
+// The default number of loops: one for every two CPUs the daemon may run on, so that
+// on a small host its clients keep a core; never none, and never more than two.
+TEST(ServerLoop, LoopThreadsAreOneForEveryTwoCpusFromOneToTwo) {
+  EXPECT_EQ(rsd::api::loop_threads_for(0), 1);
+  EXPECT_EQ(rsd::api::loop_threads_for(1), 1);
+  EXPECT_EQ(rsd::api::loop_threads_for(2), 1);
+  EXPECT_EQ(rsd::api::loop_threads_for(3), 1);
+  EXPECT_EQ(rsd::api::loop_threads_for(4), 2);
+  EXPECT_EQ(rsd::api::loop_threads_for(64), 2);
+}
