@@ -195,6 +195,7 @@ class Table {
   std::vector<std::string> headers_;
   std::vector<std::vector<std::string>> rows_;
   std::vector<std::vector<const char*>> colors_;
+  std::vector<std::size_t> widths_;  // each cell's, row after row
 };
 
 // The subcommands, one per cmd_*.cpp file.

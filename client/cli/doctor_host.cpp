@@ -1,14 +1,17 @@
 // rs-discover doctor's view of this host's network: its IPv4 interfaces, the route
 // discovery multicast leaves by, and the kinds of address no camera is reached at.
 #include "doctor.hpp"
+#include "files.hpp"
 
 #include <arpa/inet.h>
 #include <ifaddrs.h>
 #include <net/if.h>
 
+#include <algorithm>
 #include <cstdint>
-#include <fstream>
-#include <sstream>
+#include <string_view>
+#include <utility>
+#include <vector>
 
 namespace rsdiscover::doctor {
 
@@ -51,15 +54,28 @@ bool same_subnet(const Interface& itf, in_addr other) {
 // of: a route covering it (224.0.0.0/4 and the like) or the default route; "" when
 // there is none. From /proc/net/route (the main table, as `ip route` shows it).
 std::string multicast_route() {
-  std::ifstream routes("/proc/net/route");
-  std::string line, best;
+  const std::string routes = read_file("/proc/net/route").value_or("");
+  std::string best;
   int best_bits = -1;
-  std::getline(routes, line);  // the header
   const std::uint32_t group = htonl(0xEFFF0001);  // 239.255.0.1, as the file has it (network order)
-  while (std::getline(routes, line)) {
-    std::istringstream in(line);
-    std::string iface, dest_hex, gateway_hex, flags_hex, refcnt, use, metric, mask_hex;
-    if (!(in >> iface >> dest_hex >> gateway_hex >> flags_hex >> refcnt >> use >> metric >> mask_hex)) continue;
+  // After the header, a line a route: Iface Destination Gateway Flags RefCnt Use
+  // Metric Mask ..., separated by blanks.
+  bool header = true;
+  for (std::size_t at = 0; at < routes.size();) {
+    const auto end = std::min(routes.find('\n', at), routes.size());
+    const std::string_view line(routes.data() + at, end - at);
+    at = end + 1;
+    if (std::exchange(header, false)) continue;
+    std::vector<std::string> fields;
+    for (std::size_t i = 0; i < line.size() && fields.size() < 8;) {
+      const auto start = line.find_first_not_of(" \t", i);
+      if (start == std::string_view::npos) break;
+      const auto stop = std::min(line.find_first_of(" \t", start), line.size());
+      fields.emplace_back(line.substr(start, stop - start));
+      i = stop;
+    }
+    if (fields.size() < 8) continue;
+    const std::string &iface = fields[0], &dest_hex = fields[1], &flags_hex = fields[3], &mask_hex = fields[7];
     const auto dest = static_cast<std::uint32_t>(std::stoul(dest_hex, nullptr, 16));
     const auto mask = static_cast<std::uint32_t>(std::stoul(mask_hex, nullptr, 16));
     const auto flags = std::stoul(flags_hex, nullptr, 16);

@@ -10,6 +10,7 @@
 // false), "domain" (default 0)} and "device-mask" (default 0xff), which keeps a DDS
 // camera of product line D400 only with bit 0x02, D500 with 0x20, any other with 0x01.
 #include "doctor.hpp"
+#include "files.hpp"
 
 #include <rapidjson/error/en.h>
 
@@ -22,8 +23,6 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
-#include <iterator>
 #include <map>
 #include <optional>
 
@@ -117,10 +116,9 @@ std::string parse_error(std::string_view text, const std::string& why) {
 
 Config read_config(const Account& a) {
   Config c{a, a.home + "/.realsense-config.json", Config::State::missing, "", json::Document(rapidjson::kObjectType)};
-  std::ifstream in(c.path);
-  if (!in) return c;
-  const std::string file{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-  const std::string_view text = without_bom(file);
+  const auto file = read_file(c.path);
+  if (!file) return c;
+  const std::string_view text = without_bom(*file);
   if (const auto why = json::parse(text, c.doc)) {
     c.state = Config::State::broken;
     c.error = parse_error(text, *why);
@@ -267,14 +265,10 @@ int fix_librealsense(const std::vector<rsdiscovery::Device>& devices,
       }
     }
     const std::string tmp = c.path + ".tmp";
-    {
-      std::ofstream out(tmp, std::ios::trunc);
-      out << json::dump(c.doc, 4) << "\n";
-      if (!out.flush()) {
-        std::fprintf(stderr, "rs-discover: cannot write %s: %s\n", tmp.c_str(), std::strerror(errno));
-        status = kNotFound;
-        continue;
-      }
+    if (!write_file(tmp, json::dump(c.doc, 4) + "\n")) {
+      std::fprintf(stderr, "rs-discover: cannot write %s: %s\n", tmp.c_str(), std::strerror(errno));
+      status = kNotFound;
+      continue;
     }
     // Under sudo the invoking user's file stays theirs.
     if (geteuid() == 0 && a.uid != 0 && chown(tmp.c_str(), a.uid, a.gid) != 0)

@@ -1,6 +1,7 @@
 // rs-discover doctor when the daemon cannot be asked: what to do, by the cause (the
 // socket's owner and group for a permission error, the HTTP address, starting it).
 #include "doctor.hpp"
+#include "files.hpp"
 
 // The library's, header-only: the socket's owner is named as its errors name it.
 #include "../src/account_names.hpp"
@@ -11,8 +12,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <fstream>
-#include <iterator>
 #include <utility>
 #include <vector>
 
@@ -56,10 +55,9 @@ std::string reachable_http(std::string http) {
 
 // The "http" of a config file, when this user may read it.
 std::optional<std::string> http_in_file(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) return std::nullopt;
-  const std::string text{std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>()};
-  const auto doc = rsdiscovery::json::parse_or_null(without_bom(text));
+  const auto text = read_file(path);
+  if (!text) return std::nullopt;
+  const auto doc = rsdiscovery::json::parse_or_null(without_bom(*text));
   if (const auto http = rsdiscovery::json::text(rsdiscovery::json::find(doc, "http"))) return std::string(*http);
   return std::nullopt;
 }
@@ -73,9 +71,14 @@ std::vector<std::string> local_http_candidates(const std::string& socket_path) {
   if (DIR* proc = ::opendir("/proc")) {
     while (const dirent* e = ::readdir(proc)) {
       if (e->d_name[0] < '1' || e->d_name[0] > '9') continue;
-      std::ifstream in(std::string("/proc/") + e->d_name + "/cmdline", std::ios::binary);
+      // The arguments, each ended by a NUL.
+      const auto cmdline = read_file(std::string("/proc/") + e->d_name + "/cmdline").value_or("");
       std::vector<std::string> argv;
-      for (std::string arg; std::getline(in, arg, '\0');) argv.push_back(arg);
+      for (std::size_t at = 0; at < cmdline.size();) {
+        const auto end = std::min(cmdline.find('\0', at), cmdline.size());
+        argv.push_back(cmdline.substr(at, end - at));
+        at = end + 1;
+      }
       if (argv.empty() || argv[0].substr(argv[0].rfind('/') + 1) != "rs-discoveryd") continue;
       std::optional<std::string> http, config, socket;
       for (std::size_t i = 1; i < argv.size(); ++i) {

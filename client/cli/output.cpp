@@ -3,7 +3,6 @@
 #include "common.hpp"
 
 #include <algorithm>
-#include <charconv>
 #include <chrono>
 #include <ctime>
 
@@ -64,16 +63,18 @@ std::string device_sources(const rsdiscovery::Device& d) {
 }
 
 std::optional<double> parse_iso8601(const std::string& text) {
-  // "2026-11-24T10:09:54.065Z", "+02:00"-style offsets too. By hand with
-  // from_chars and the chrono calendar: sscanf and timegm for the AGE column were a
-  // large part of a cold `rs-discover list` (callgrind).
+  // "2026-11-24T10:09:54.065Z", "+02:00"-style offsets too. By hand, digit by digit,
+  // with the chrono calendar: sscanf and timegm, then from_chars, for the AGE column
+  // were a large part of a cold `rs-discover list` (callgrind).
   const char* p = text.data();
   const char* const end = p + text.size();
   const auto number = [&](int digits, int& out) {
     if (end - p < digits) return false;
-    const auto r = std::from_chars(p, p + digits, out);
-    if (r.ec != std::errc() || r.ptr != p + digits) return false;
-    p += digits;
+    out = 0;
+    for (const char* stop = p + digits; p < stop; ++p) {
+      if (*p < '0' || *p > '9') return false;
+      out = out * 10 + (*p - '0');
+    }
     return true;
   };
   const auto expect = [&](char c) { return p < end && *p++ == c; };
@@ -116,13 +117,6 @@ std::string age_since(const std::string& iso8601) {
   return std::to_string(n / 86400) + "d";
 }
 
-void Table::add(std::vector<std::string> cells, std::vector<const char*> colors) {
-  cells.resize(headers_.size());
-  colors.resize(headers_.size(), nullptr);
-  rows_.push_back(std::move(cells));
-  colors_.push_back(std::move(colors));
-}
-
 namespace {
 // Display width of UTF-8 text: one column per code point (device names are ASCII
 // in practice; this keeps any other text from breaking the alignment badly).
@@ -133,29 +127,37 @@ std::size_t width(const std::string& s) {
 }
 }  // namespace
 
+void Table::add(std::vector<std::string> cells, std::vector<const char*> colors) {
+  cells.resize(headers_.size());
+  colors.resize(headers_.size(), nullptr);
+  for (const auto& cell : cells) widths_.push_back(width(cell));
+  rows_.push_back(std::move(cells));
+  colors_.push_back(std::move(colors));
+}
+
 void Table::print(std::FILE* out) const {
-  std::vector<std::size_t> w(headers_.size());
-  for (std::size_t i = 0; i < headers_.size(); ++i) w[i] = width(headers_[i]);
-  for (const auto& row : rows_)
-    for (std::size_t i = 0; i < row.size(); ++i) w[i] = std::max(w[i], width(row[i]));
+  const std::size_t columns = headers_.size();
+  std::vector<std::size_t> header_widths(columns), w(columns);
+  for (std::size_t i = 0; i < columns; ++i) w[i] = header_widths[i] = width(headers_[i]);
+  for (std::size_t k = 0; k < widths_.size(); ++k) w[k % columns] = std::max(w[k % columns], widths_[k]);
   // One buffer for every line, cells appended in place (a copy of each cell and a
   // string grown per line were most of the table's cost in a cold list of 100).
   const bool color = output().color;
   std::string text;
-  auto line = [&](const std::vector<std::string>& cells, const std::vector<const char*>* colors,
-                  const char* all) {
+  auto line = [&](const std::vector<std::string>& cells, const std::size_t* widths,
+                  const std::vector<const char*>* colors, const char* all) {
     text.clear();
     for (std::size_t i = 0; i < cells.size(); ++i) {
       const char* code = colors ? (*colors)[i] : all;
       if (color && code) text.append(code).append(cells[i]).append("\033[0m");
       else text.append(cells[i]);
-      if (i + 1 < cells.size()) text.append(w[i] - width(cells[i]) + 2, ' ');
+      if (i + 1 < cells.size()) text.append(w[i] - widths[i] + 2, ' ');
     }
     text += '\n';
     std::fwrite(text.data(), 1, text.size(), out);
   };
-  if (output().headers) line(headers_, nullptr, color::bold);
-  for (std::size_t r = 0; r < rows_.size(); ++r) line(rows_[r], &colors_[r], nullptr);
+  if (output().headers) line(headers_, header_widths.data(), nullptr, color::bold);
+  for (std::size_t r = 0; r < rows_.size(); ++r) line(rows_[r], widths_.data() + r * columns, &colors_[r], nullptr);
 }
 
 std::string missing_since(const rsdiscovery::ExpectedCamera& camera) {

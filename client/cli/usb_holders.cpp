@@ -1,6 +1,8 @@
 // find_usb_holders(): /proc/*/fd against a USB camera's device nodes (usb_holders.hpp).
 #include "usb_holders.hpp"
 
+#include "files.hpp"
+
 #include "../src/account_names.hpp"
 
 #include <dirent.h>
@@ -10,8 +12,6 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdlib>
-#include <fstream>
-#include <iterator>
 #include <memory>
 #include <optional>
 
@@ -42,10 +42,7 @@ std::optional<pid_t> pid_of(const char* name) {
 // arguments are gone. Bounded, as a process may have megabytes of arguments.
 std::string command_of(const std::string& dir) {
   constexpr std::size_t kMax = 1024;
-  std::ifstream f(dir + "/cmdline", std::ios::binary);
-  std::string args(kMax, '\0');
-  f.read(args.data(), static_cast<std::streamsize>(kMax));
-  args.resize(static_cast<std::size_t>(std::max<std::streamsize>(f.gcount(), 0)));
+  std::string args = read_file(dir + "/cmdline", kMax).value_or("");
   while (!args.empty() && args.back() == '\0') args.pop_back();
   // One line in a table: the separators become spaces, other control characters '?'
   // (as ps shows them).
@@ -55,9 +52,8 @@ std::string command_of(const std::string& dir) {
     else if (u < 0x20 || u == 0x7f) ch = '?';
   }
   if (!args.empty()) return args;
-  std::ifstream c(dir + "/comm");
-  std::string comm;
-  std::getline(c, comm);
+  std::string comm = read_file(dir + "/comm").value_or("");
+  comm = comm.substr(0, comm.find('\n'));
   return "[" + comm + "]";
 }
 
