@@ -14,9 +14,21 @@
 #include <cstdio>
 #include <cstring>
 
+#include <locale.h>
+#include <stdlib.h>
+
 namespace rsdiscovery::json {
 
 namespace {
+
+// Numbers are read and written in the "C" locale, whatever the program's is (its
+// decimal point is '.'). With strtod_l and snprintf, not std::from_chars and
+// std::to_chars: libstdc++'s ask libm for the rounding mode, and loading libm for
+// that alone was a large part of rs-discover's cold start (bench/).
+locale_t c_numeric() {
+  static const locale_t c = newlocale(LC_NUMERIC_MASK, "C", locale_t{});
+  return c;
+}
 
 // RapidJSON 1.1 takes the escape of a lone low surrogate ("\udc00") and writes the
 // UTF-8 form of the surrogate itself, which is not UTF-8 (and what RapidJSON then
@@ -58,15 +70,12 @@ class BoundedBuilder {
       if (t.front() == '-' && std::from_chars(t.data(), t.data() + t.size(), i).ec == std::errc()) return doc_.Int64(i);
       if (t.front() != '-' && std::from_chars(t.data(), t.data() + t.size(), u).ec == std::errc()) return doc_.Uint64(u);
     }
-    double d = 0;
-    const auto [end, error] = std::from_chars(t.data(), t.data() + t.size(), d);
-    if (error == std::errc::result_out_of_range) {
-      // Too small for a double reads as nlohmann reads it (0, or the nearest subnormal);
-      // too large is refused, as nlohmann refuses it.
-      d = std::strtod(std::string(t).c_str(), nullptr);
-      return std::isfinite(d) && doc_.Double(d);
-    }
-    return error == std::errc() && end == t.data() + t.size() && doc_.Double(d);
+    // Exactly, as nlohmann's strtod reads it: too small for a double is 0 or the
+    // nearest subnormal; too large is refused, as nlohmann refuses it.
+    const std::string text(t);
+    char* end = nullptr;
+    const double d = strtod_l(text.c_str(), &end, c_numeric());
+    return end == text.c_str() + text.size() && std::isfinite(d) && doc_.Double(d);
   }
   bool String(const char* str, rapidjson::SizeType length, bool copy) {
     return !(escapes_ && has_surrogate(str, length)) && doc_.String(str, length, copy);
@@ -126,7 +135,7 @@ bool is_ascii(std::string_view text) {
 // Recursive, which RapidJSON does in fewer instructions than its iterative parse:
 // the builder refuses the object or array that would open level kMaxDepth + 1
 // before the reader goes into it, so the parse never goes deeper than that,
-// whatever the text. Numbers are converted by std::from_chars
+// whatever the text. Numbers are converted by strtod_l
 // (BoundedBuilder::RawNumber), exactly, as nlohmann's strtod does, and never by
 // RapidJSON 1.1.0 as bookworm ships it (1.1.0+dfsg2-7.1): it adds a negative
 // exponent of ten digits to the count of a fraction's digits in an int, which
@@ -165,19 +174,43 @@ std::optional<std::string> parse_stream(std::string_view text, Stream& stream, D
 // A finite double laid out as nlohmann lays it out: in full from 1e-4 to below 1e15,
 // a whole one with ".0" ("0.001", "1500.0"), else with a signed exponent of two digits
 // or more ("1e-06", "1e+16"; RapidJSON writes "0.000001" and "10000000000000000.0").
-// The digits are the shortest that read back as the same double (std::to_chars);
-// nlohmann's Grisu2 picks the same ones but for a rare double, where its longer
-// digits name the same value.
+// The digits are the fewest that read back as the same double, the nearest of them
+// (as std::to_chars gives them; the unit tests hold the two together); nlohmann's
+// Grisu2 picks the same ones but for a rare double, where its longer digits name the
+// same value.
 std::string nlohmann_layout(double d) {
   if (d == 0) return std::signbit(d) ? "-0.0" : "0.0";
-  char buffer[64];
-  const auto written = std::to_chars(buffer, buffer + sizeof buffer, d, std::chars_format::scientific);
-  const std::string_view sci(buffer, static_cast<std::size_t>(written.ptr - buffer));  // "-1.5e+100"
-  const auto e = sci.find('e');
+  const locale_t c = c_numeric();
+  const locale_t previous = uselocale(c);
   std::string digits;
-  for (const char c : sci.substr(0, e))
-    if (c >= '0' && c <= '9') digits += c;
-  const int exponent = std::stoi(std::string(sci.substr(e + 1)));
+  int exponent = 0;  // of the first digit
+  char buffer[64];
+  for (int precision = 0; precision <= 16 && digits.empty(); ++precision) {  // 17 digits always read back
+    std::snprintf(buffer, sizeof buffer, "%.*e", precision, std::fabs(d));  // "1.5e+100"
+    const char* e = std::strchr(buffer, 'e');
+    exponent = std::atoi(e + 1);
+    std::string nearest;
+    for (const char* p = buffer; p < e; ++p)
+      if (*p != '.') nearest += *p;
+    if (strtod_l(buffer, nullptr, c) == std::fabs(d)) {
+      digits = nearest;
+      break;
+    }
+    // The nearest with this many digits may lie just outside the double's interval
+    // while its neighbour in the last digit lies inside.
+    const unsigned long long m = std::strtoull(nearest.c_str(), nullptr, 10);
+    for (const unsigned long long candidate : {m - 1, m + 1}) {
+      const std::string text = std::to_string(candidate);
+      if (text.size() != nearest.size()) continue;  // another number of digits: another precision's
+      std::snprintf(buffer, sizeof buffer, "%se%d", text.c_str(), exponent - precision);
+      if (strtod_l(buffer, nullptr, c) == std::fabs(d)) {
+        digits = text;
+        break;
+      }
+    }
+  }
+  uselocale(previous);
+  while (digits.size() > 1 && digits.back() == '0') digits.pop_back();
   const int k = static_cast<int>(digits.size());
   const int n = exponent + 1;  // where the point goes, counted from the first digit
   std::string out = d < 0 ? "-" : "";

@@ -25,6 +25,8 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <charconv>
+#include <cmath>
 #include <condition_variable>
 #include <cstdlib>
 #include <cstring>
@@ -32,6 +34,7 @@
 #include <future>
 #include <map>
 #include <mutex>
+#include <random>
 #include <set>
 #include <thread>
 
@@ -556,6 +559,39 @@ void expect_malformed(Read read, const njson& doc) {
   } catch (const Error& e) {
     EXPECT_EQ(e.code(), ErrorCode::malformed_reply) << doc.dump();
   }
+}
+
+// A double is written in the fewest digits that read back as it, the nearest of them:
+// the digits std::to_chars gives (the library writes them with snprintf and reads them
+// back with strtod_l, which rs-discover can do without loading libm).
+TEST(Json, DoublesAreWrittenInTheFewestDigitsThatReadBack) {
+  const auto significant = [](std::string text) {  // "-0.00150" and "1.5e-03": "15"
+    text = text.substr(0, text.find_first_of("eE"));
+    std::string digits;
+    for (const char c : text)
+      if (c >= '0' && c <= '9') digits += c;
+    digits.erase(0, std::min(digits.find_first_not_of('0'), digits.size()));
+    while (!digits.empty() && digits.back() == '0') digits.pop_back();
+    return digits;
+  };
+  std::mt19937_64 random(20261206);
+  int checked = 0;
+  for (int i = 0; i < 20000; ++i) {
+    std::uint64_t bits = random();
+    if (i % 3 == 1) bits &= ~((std::uint64_t{1} << 32) - 1);  // short mantissas
+    if (i % 3 == 2) bits &= ~((std::uint64_t{1} << 52) - 1);  // powers of two
+    double d;
+    std::memcpy(&d, &bits, sizeof d);
+    if (!std::isfinite(d) || d == 0) continue;
+    const std::string text = rsdiscovery::json::dump(rsdiscovery::json::Value(d));
+    SCOPED_TRACE(text);
+    EXPECT_EQ(std::strtod(text.c_str(), nullptr), d);
+    char shortest[64];
+    const auto end = std::to_chars(shortest, shortest + sizeof shortest, d, std::chars_format::scientific).ptr;
+    EXPECT_EQ(significant(text), significant(std::string(shortest, end)));
+    ++checked;
+  }
+  EXPECT_GT(checked, 19000);
 }
 
 TEST(Documents, DomainEntryAsTheDaemonWritesIt) {
