@@ -236,4 +236,6 @@ def test_loss_is_explained_and_survived(free_domain, daemon, realdds_server, two
         assert marked >= 1, graced_seen
     print(f"graced daemon: unresponsive {marked} times, no removal")
     watcher.stop()
-    server.quit()
+    # The server is left to the fixture, which kills it: on the lossy link its own
+    # quit once took over 10 s to exit after saying ok (Fast DDS taking its
+    # participant down), and nothing is asserted after this.
