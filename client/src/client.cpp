@@ -155,9 +155,11 @@ std::optional<Device> Client::Impl::find_device(const std::string& id, std::stri
     transport.get_json(path);  // turns the status into its Error
     malformed(endpoint, "GET " + path + " answered " + std::to_string(reply.status));
   }
-  json::Document doc;
-  if (json::parse(reply.body, doc)) malformed(endpoint, "GET " + path + " is not JSON");
-  return detail::device_from_json(doc, std::move(reply.body));
+  detail::DeviceDocument doc;
+  if (const auto why = detail::read_device(reply.body, doc))
+    malformed(endpoint, "GET " + path + (*why == detail::Unread::not_json ? " is not JSON" : std::string(": ") + to_string(*why)));
+  doc.device.json = std::move(reply.body);
+  return std::move(doc.device);
 }
 
 std::vector<Device> Client::list_devices(const DeviceFilter& filter) { return list(filter).devices; }

@@ -22,7 +22,21 @@ namespace rsdiscovery::detail {
 // Each throws Error(malformed_reply) for a document that is not what the API says.
 // `text`: the document as the daemon sent it, kept as the type's json; empty: written
 // anew from `doc`.
-Device device_from_json(const json::Value& doc, std::string text = {});
+
+// One device document as the library reads it: the Device, and what the public
+// Device has no field for (a shared camera's host, a camera's clients), each read
+// whole or not at all. Device::json is left to the caller.
+struct DeviceDocument {
+  Device device;
+  std::optional<SharingHost> host;
+  std::optional<DeviceInUse> in_use;
+};
+enum class Unread { not_json, not_an_object, no_id };  // no_id: the rest is read
+const char* to_string(Unread why);  // said for a user
+std::optional<Unread> read_device(std::string_view text, DeviceDocument& out);
+// A device document read, with `text` as its json; throws Error(malformed_reply)
+// when it is not one.
+Device device_from_text(std::string text);
 // GET `path`'s reply (a /v1/devices document) into `out`: each device with its text
 // as sent. A problem with the document is returned, said as for a user; a device
 // without an id throws Error(malformed_reply).
@@ -33,10 +47,6 @@ Health health_from_json(const json::Value& doc);
 Expected expected_from_json(const json::Value& doc);
 Participant participant_from_json(const json::Value& doc);
 CameraClients clients_from_json(const json::Value& doc);
-// A remote-usb device's "host" and a DDS device's "in-use", read as device_from_json
-// reads the rest (whole or not at all).
-std::optional<SharingHost> host_of(const json::Value& doc);
-std::optional<DeviceInUse> in_use_of(const json::Value& doc);
 
 // The text of each element of the array that member `key` of the JSON object
 // `text` holds, as it stands in `text`; nothing when there is no such array.

@@ -44,78 +44,88 @@ bool has_surrogate(const char* str, std::size_t length) {
   return false;
 }
 
-// RapidJSON's tree builder (the document's own handler) with a bound on nesting; on
-// the way it notes where each object of one top-level array starts and ends.
+// RapidJSON's reader handler: tells `events` what the reader finds, with a bound on
+// nesting, numbers read exactly and lone surrogates refused.
 template <class Stream>
-class BoundedBuilder {
+class Handler {
  public:
-  BoundedBuilder(Document& doc, Stream& stream, bool escapes, std::string_view spans_of,
-                 std::vector<std::pair<std::size_t, std::size_t>>* spans)
-      : doc_(doc), stream_(stream), escapes_(escapes), spans_of_(spans_of), spans_(spans) {}
+  Handler(Events& events, Stream& stream, bool escapes) : events_(events), stream_(stream), escapes_(escapes) {}
   bool too_deep() const { return too_deep_; }
 
-  bool Null() { return doc_.Null(); }
-  bool Bool(bool b) { return doc_.Bool(b); }
-  bool Int(int i) { return doc_.Int(i); }
-  bool Uint(unsigned u) { return doc_.Uint(u); }
-  bool Int64(std::int64_t i) { return doc_.Int64(i); }
-  bool Uint64(std::uint64_t u) { return doc_.Uint64(u); }
-  bool Double(double d) { return doc_.Double(d); }
-  // Every number comes here as its text (kParseNumbersAsStringsFlag: see kFlags).
+  bool Null() { return events_.null(), true; }
+  bool Bool(bool b) { return events_.boolean(b), true; }
+  // Never called with kParseNumbersAsStringsFlag (see kFlags), which RawNumber takes
+  // instead; the reader's concept asks for them.
+  bool Int(int i) { return events_.integer(i), true; }
+  bool Uint(unsigned u) { return events_.unsigned_integer(u), true; }
+  bool Int64(std::int64_t i) { return events_.integer(i), true; }
+  bool Uint64(std::uint64_t u) { return events_.unsigned_integer(u), true; }
+  bool Double(double d) { return events_.number(d), true; }
   bool RawNumber(const char* str, rapidjson::SizeType length, bool) {
     const std::string_view t(str, length);
     if (t.find_first_of(".eE") == std::string_view::npos) {  // a whole number, when it fits 64 bits
       std::int64_t i = 0;
       std::uint64_t u = 0;
-      if (t.front() == '-' && std::from_chars(t.data(), t.data() + t.size(), i).ec == std::errc()) return doc_.Int64(i);
-      if (t.front() != '-' && std::from_chars(t.data(), t.data() + t.size(), u).ec == std::errc()) return doc_.Uint64(u);
+      if (t.front() == '-' && std::from_chars(t.data(), t.data() + t.size(), i).ec == std::errc()) {
+        // "-0" is zero, from zero.
+        return i < 0 ? events_.integer(i) : events_.unsigned_integer(0), true;
+      }
+      if (t.front() != '-' && std::from_chars(t.data(), t.data() + t.size(), u).ec == std::errc())
+        return events_.unsigned_integer(u), true;
     }
     // Exactly, as nlohmann's strtod reads it: too small for a double is 0 or the
     // nearest subnormal; too large is refused, as nlohmann refuses it.
     const std::string text(t);
     char* end = nullptr;
     const double d = strtod_l(text.c_str(), &end, c_numeric());
-    return end == text.c_str() + text.size() && std::isfinite(d) && doc_.Double(d);
+    if (end != text.c_str() + text.size() || !std::isfinite(d)) return false;
+    return events_.number(d), true;
   }
-  bool String(const char* str, rapidjson::SizeType length, bool copy) {
-    return !(escapes_ && has_surrogate(str, length)) && doc_.String(str, length, copy);
-  }
-  bool Key(const char* str, rapidjson::SizeType length, bool copy) {
+  bool String(const char* str, rapidjson::SizeType length, bool) {
     if (escapes_ && has_surrogate(str, length)) return false;
-    if (depth_ == 1) in_spans_ = spans_ && std::string_view(str, length) == spans_of_;
-    return doc_.Key(str, length, copy);
+    return events_.string({str, length}), true;
   }
-  // The stream stands at the brace or just past it (the reader calls before or after
-  // taking it): device_list.cpp's cut allows for both.
-  bool StartObject() {
-    if (!enter()) return false;
-    if (depth_ == 3 && in_spans_) spans_->emplace_back(stream_.Tell(), 0);
-    return doc_.StartObject();
+  bool Key(const char* str, rapidjson::SizeType length, bool) {
+    if (escapes_ && has_surrogate(str, length)) return false;
+    return events_.key({str, length}), true;
   }
-  bool EndObject(rapidjson::SizeType members) {
-    if (depth_ == 3 && in_spans_ && !spans_->empty()) spans_->back().second = stream_.Tell();
-    return leave() && doc_.EndObject(members);
-  }
-  bool StartArray() { return enter() && doc_.StartArray(); }
-  bool EndArray(rapidjson::SizeType elements) { return leave() && doc_.EndArray(elements); }
+  bool StartObject() { return enter() && (events_.start_object(stream_.Tell()), true); }
+  bool EndObject(rapidjson::SizeType members) { return leave(), events_.end_object(stream_.Tell(), members), true; }
+  bool StartArray() { return enter() && (events_.start_array(), true); }
+  bool EndArray(rapidjson::SizeType elements) { return leave(), events_.end_array(elements), true; }
 
  private:
   bool enter() {
     too_deep_ = ++depth_ > kMaxDepth;
     return !too_deep_;
   }
-  bool leave() {
-    --depth_;
-    return true;
-  }
-  Document& doc_;
+  void leave() { --depth_; }
+  Events& events_;
   Stream& stream_;
   const bool escapes_;  // the text has a \u escape
-  std::string_view spans_of_;
-  std::vector<std::pair<std::size_t, std::size_t>>* spans_;
   int depth_ = 0;
   bool too_deep_ = false;
-  bool in_spans_ = false;
+};
+
+// The tree: each event handed on to the document's own handler, which builds it.
+class TreeEvents final : public Events {
+ public:
+  explicit TreeEvents(Document& doc) : doc_(doc) {}
+  void null() override { doc_.Null(); }
+  void boolean(bool b) override { doc_.Bool(b); }
+  void integer(std::int64_t i) override { doc_.Int64(i); }
+  void unsigned_integer(std::uint64_t u) override { doc_.Uint64(u); }
+  void number(double d) override { doc_.Double(d); }
+  void string(std::string_view s) override { doc_.String(s.data(), size(s), true); }
+  void key(std::string_view k) override { doc_.Key(k.data(), size(k), true); }
+  void start_object(std::size_t) override { doc_.StartObject(); }
+  void end_object(std::size_t, std::size_t members) override { doc_.EndObject(static_cast<rapidjson::SizeType>(members)); }
+  void start_array() override { doc_.StartArray(); }
+  void end_array(std::size_t elements) override { doc_.EndArray(static_cast<rapidjson::SizeType>(elements)); }
+
+ private:
+  static rapidjson::SizeType size(std::string_view s) { return static_cast<rapidjson::SizeType>(s.size()); }
+  Document& doc_;
 };
 
 // RapidJSON checks UTF-8 byte by byte (a quarter of a cold list's instructions); text
@@ -133,43 +143,17 @@ bool is_ascii(std::string_view text) {
 }
 
 // Recursive, which RapidJSON does in fewer instructions than its iterative parse:
-// the builder refuses the object or array that would open level kMaxDepth + 1
+// the handler refuses the object or array that would open level kMaxDepth + 1
 // before the reader goes into it, so the parse never goes deeper than that,
-// whatever the text. Numbers are converted by strtod_l
-// (BoundedBuilder::RawNumber), exactly, as nlohmann's strtod does, and never by
+// whatever the text. The recursive reader hands a number's text over where it
+// stands, in place too (the iterative one, in place with full precision, overran
+// the heap under fuzz_client_documents). Numbers are converted by strtod_l
+// (Handler::RawNumber), exactly, as nlohmann's strtod does, and never by
 // RapidJSON 1.1.0 as bookworm ships it (1.1.0+dfsg2-7.1): it adds a negative
 // exponent of ten digits to the count of a fraction's digits in an int, which
 // underflows (CVE-2024-38517; trixie's 7.4 is patched), and its full-precision strtod
 // shifts by the leading zeros of a zero significand (0e-300), which is undefined.
 constexpr unsigned kFlags = rapidjson::kParseNumbersAsStringsFlag;
-
-template <unsigned Flags, class Stream>
-std::optional<std::string> parse_stream(std::string_view text, Stream& stream, Document& out,
-                                        std::string_view spans_of,
-                                        std::vector<std::pair<std::size_t, std::size_t>>* spans) {
-  // A NUL ends the parse as the end of the text would; JSON has none outside strings,
-  // nor raw inside them.
-  if (std::memchr(text.data(), '\0', text.size())) return "not JSON (a NUL byte)";
-  // A backslash is rare in what the daemon writes: memchr finds each (memmem goes byte by byte).
-  bool escapes = false;
-  for (auto i = text.find('\\'); i != std::string_view::npos && !escapes; i = text.find('\\', i + 2))
-    escapes = i + 1 < text.size() && text[i + 1] == 'u';
-  BoundedBuilder<Stream> builder(out, stream, escapes, spans_of, spans);
-  rapidjson::Reader reader;
-  const bool ascii = is_ascii(text);
-  auto run = [&](Document&) {
-    const auto result = ascii ? reader.Parse<Flags>(stream, builder)
-                              : reader.Parse<Flags | rapidjson::kParseValidateEncodingFlag>(stream, builder);
-    return !result.IsError();
-  };
-  out.Populate(run);
-  if (builder.too_deep()) return "a document nested deeper than " + std::to_string(kMaxDepth) + " levels";
-  if (reader.HasParseError()) {
-    out.SetNull();
-    return "not JSON";
-  }
-  return std::nullopt;
-}
 
 // A finite double laid out as nlohmann lays it out: in full from 1e-4 to below 1e15,
 // a whole one with ".0" ("0.001", "1500.0"), else with a signed exponent of two digits
@@ -276,15 +260,38 @@ class NlohmannForms : public Base {
 
 }  // namespace
 
-std::optional<std::string> parse(std::string_view text, Document& out, std::string_view spans_of,
-                                 std::vector<std::pair<std::size_t, std::size_t>>* spans) {
-  // NUL-terminated, as StringStream reads (parse_stream refuses a NUL inside), with
-  // room past the end for the 16-byte scans (json.hpp).
-  std::string padded;
-  padded.reserve(text.size() + 32);
-  padded.assign(text);
-  rapidjson::StringStream stream(padded.c_str());
-  return parse_stream<kFlags>(text, stream, out, spans_of, spans);
+std::optional<std::string> parse(std::string_view text, Events& events) {
+  // A NUL ends the parse as the end of the text would; JSON has none outside strings,
+  // nor raw inside them.
+  if (std::memchr(text.data(), '\0', text.size())) return "not JSON (a NUL byte)";
+  // A backslash is rare in what the daemon writes: memchr finds each (memmem goes byte by byte).
+  bool escapes = false;
+  for (auto i = text.find('\\'); i != std::string_view::npos && !escapes; i = text.find('\\', i + 2))
+    escapes = i + 1 < text.size() && text[i + 1] == 'u';
+  // In place, on a copy: each string is unescaped where it stands and handed on from
+  // there, where a parse from the text itself copies it byte by byte onto a stack
+  // first (most of a list's parse). NUL-terminated, as the reader reads (a NUL inside
+  // is refused above), with room past the end for the 16-byte scans (json.hpp).
+  std::string copy;
+  copy.reserve(text.size() + 32);
+  copy.assign(text);
+  rapidjson::InsituStringStream stream(copy.data());
+  Handler<rapidjson::InsituStringStream> handler(events, stream, escapes);
+  rapidjson::Reader reader;
+  const auto result = is_ascii(text) ? reader.Parse<kFlags>(stream, handler)
+                                     : reader.Parse<kFlags | rapidjson::kParseValidateEncodingFlag>(stream, handler);
+  if (handler.too_deep()) return "a document nested deeper than " + std::to_string(kMaxDepth) + " levels";
+  if (result.IsError()) return "not JSON";
+  return std::nullopt;
+}
+
+std::optional<std::string> parse(std::string_view text, Document& out) {
+  TreeEvents tree(out);
+  std::optional<std::string> problem;
+  auto run = [&](Document&) { return !(problem = parse(text, static_cast<Events&>(tree))); };
+  out.Populate(run);
+  if (problem) out.SetNull();
+  return problem;
 }
 
 Document parse_or_null(std::string_view text) {

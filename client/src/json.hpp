@@ -32,15 +32,38 @@ using Document = rapidjson::Document;
 // cut at 16 levels: daemon/dds/device_info.hpp).
 inline constexpr int kMaxDepth = 64;
 
+// What a parse finds, told in the order of the text: for a reader that builds its
+// own values and needs no tree (device_list.cpp). Numbers come as the kind they are
+// written as: a whole number below zero that fits 64 bits, a whole number from zero
+// that fits 64 bits, or any other (as a double). For an object, `at` is where in the
+// text the reader stands as it tells: on its brace or just past it (the reader takes
+// the brace before it tells, or after).
+class Events {
+ public:
+  virtual void null() = 0;
+  virtual void boolean(bool b) = 0;
+  virtual void integer(std::int64_t i) = 0;
+  virtual void unsigned_integer(std::uint64_t u) = 0;
+  virtual void number(double d) = 0;
+  virtual void string(std::string_view s) = 0;
+  virtual void key(std::string_view k) = 0;
+  virtual void start_object(std::size_t at) = 0;
+  virtual void end_object(std::size_t at, std::size_t members) = 0;
+  virtual void start_array() = 0;
+  virtual void end_array(std::size_t elements) = 0;
+
+ protected:
+  ~Events() = default;
+};
+
 // Parses `text` as one JSON value, as strictly as nlohmann does (numbers beyond a
 // double, lone surrogates, control characters, invalid UTF-8, trailing text and NULs
-// are refused; unit-tested). Returns why not, said for a user, or nothing. When
-// `spans_of` is given, the [start, end) in `text` of each object in the array that the
-// top-level member of that name holds is noted in `spans` (what device_list.cpp cuts
-// each device's text by). Not in place: bookworm's RapidJSON (1.1.0) reads a number's
-// text from the wrong place in place.
-std::optional<std::string> parse(std::string_view text, Document& out, std::string_view spans_of = {},
-                                 std::vector<std::pair<std::size_t, std::size_t>>* spans = nullptr);
+// are refused; unit-tested), telling `events` what it finds. Returns why not, said
+// for a user, or nothing; when it says why not, `events` may have been told of a
+// part of the text. `text` itself is not written to (the parse is in place on a copy).
+std::optional<std::string> parse(std::string_view text, Events& events);
+// The same parse into a tree.
+std::optional<std::string> parse(std::string_view text, Document& out);
 // A Null document when `text` is not JSON, nothing said why (for text the daemon
 // wrote and the library already checked, such as Device::json).
 Document parse_or_null(std::string_view text);

@@ -190,6 +190,14 @@ json::Document parsed(const std::string& text) {
   return doc;
 }
 
+// A device's document read again, for what Device has no field for: nothing of it
+// when it is not JSON or not an object.
+detail::DeviceDocument read(const Device& device) {
+  detail::DeviceDocument doc;
+  const auto why = detail::read_device(device.json, doc);
+  return why && why != detail::Unread::no_id ? detail::DeviceDocument() : doc;
+}
+
 }  // namespace
 
 Description parse_description(const std::string& json_text) {
@@ -199,11 +207,11 @@ Description parse_description(const std::string& json_text) {
 std::optional<SharingHost> sharing_host(const Device& device) {
   if (device.source != "remote-usb") return std::nullopt;
   // A remote-usb device without a readable "host": a value with an empty name.
-  return detail::host_of(json::parse_or_null(device.json)).value_or(SharingHost{});
+  return read(device).host.value_or(SharingHost{});
 }
 
-std::optional<DeviceInUse> in_use_of(const Device& device) { return detail::in_use_of(json::parse_or_null(device.json)); }
+std::optional<DeviceInUse> in_use_of(const Device& device) { return read(device).in_use; }
 
-Device parse_device(const std::string& json_text) { return detail::device_from_json(parsed(json_text), json_text); }
+Device parse_device(const std::string& json_text) { return detail::device_from_text(json_text); }
 
 }  // namespace rsdiscovery

@@ -275,11 +275,12 @@ void WatchCore::handle(const detail::SseMessage& m) {
     type = Event::Type::removed;
   else
     return;  // an event type of a later API version
-  json::Document doc;
-  if (json::parse(m.data, doc) || !json::text(json::find(doc, "id")))
+  detail::DeviceDocument doc;
+  if (detail::read_device(m.data, doc))
     throw Error(ErrorCode::malformed_reply, "malformed event from rs-discoveryd at " +
                                                 stream_.endpoint().to_string() + ": '" + m.event +
                                                 "' without a device document");
+  doc.device.json = m.data;
   if (id) {
     std::lock_guard lock(mutex_);
     // Already in the view: the list that followed a resync was taken after it.
@@ -287,7 +288,7 @@ void WatchCore::handle(const detail::SseMessage& m) {
     if (*id <= listed_at_) return;
     last_id_ = id;
   }
-  apply(type, detail::device_from_json(doc, m.data), id.value_or(0), false);
+  apply(type, std::move(doc.device), id.value_or(0), false);
 }
 
 void WatchCore::apply(Event::Type type, Device device, std::uint64_t id, bool synthetic) {

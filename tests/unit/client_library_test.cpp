@@ -324,15 +324,17 @@ void expect_read_as_the_daemon_reads(const Device& d, const njson& doc) {
     EXPECT_EQ(d.usb->port_path, m.usb->port_path);
     EXPECT_EQ(d.usb->speed, m.usb->speed);
   }
-  const auto client = client_doc(doc);
-  const auto host = detail::host_of(client);
+  detail::DeviceDocument client;
+  const auto unread = detail::read_device(doc.dump(), client);
+  ASSERT_TRUE(!unread || unread == detail::Unread::no_id);
+  const auto& host = client.host;
   ASSERT_EQ(host.has_value(), m.host.has_value());
   if (host) {
     EXPECT_EQ(host->name, m.host->name);
     EXPECT_EQ(host->addresses, m.host->addresses);
     EXPECT_EQ(host->participant_guid, m.host->participant_guid.value_or(""));
   }
-  const auto in_use = detail::in_use_of(client);
+  const auto& in_use = client.in_use;
   ASSERT_EQ(in_use.has_value(), m.in_use.has_value());
   if (in_use) {
     EXPECT_EQ(in_use->clients, m.in_use->clients);
@@ -460,6 +462,16 @@ TEST(DeviceList, RefusesWhatIsNotJson) {
   EXPECT_EQ(out.devices.at(0).domain, -1);
   EXPECT_EQ(njson::parse(out.devices.at(0).field("n")),
             njson::parse("[18446744073709551615,-9223372036854775808,1.8446744073709552e19,2.5e100,1e-300,-0.0]"));
+  // The parse is in place: a string with escapes is written back shorter where it
+  // stood, and what follows it is still read from where it stands.
+  std::string shifted = R"({"devices":[{"id":"a\"b\\c\u0041","n":[12,-3.5e2],"domain":7,"name":"\t"}],"generation":5})";
+  ASSERT_EQ(detail::read_device_list(shifted, "/v1/devices", out), std::nullopt);
+  EXPECT_EQ(out.devices.at(0).id, "a\"b\\cA");
+  EXPECT_EQ(out.devices.at(0).domain, 7);
+  EXPECT_EQ(out.devices.at(0).name, "\t");
+  EXPECT_EQ(out.generation, 5u);
+  EXPECT_EQ(njson::parse(out.devices.at(0).field("n")), njson::parse("[12,-350.0]"));
+  EXPECT_EQ(out.devices.at(0).json, R"({"id":"a\"b\\c\u0041","n":[12,-3.5e2],"domain":7,"name":"\t"})");
   // In a string such letters and digits are no number: GUIDs are hex (0110e123.4...).
   std::string guid = R"({"devices":[{"id":"x","g":"0110e1234.5","q":"\"1E+5678\\","n":2e10}]})";
   ASSERT_EQ(detail::read_device_list(guid, "/v1/devices", out), std::nullopt);
@@ -481,7 +493,7 @@ TEST(Device, UsbAndMergedDevicesAsTheDaemonWritesThem) {
   rsd::DeviceTable table;
   table.upsert(rsd::usb::sighting_id(s), rsd::usb::to_json(s, *rsd::usb::find_product(s.vid, s.pid)),
                "2026-11-23T13:10:20.123Z");
-  auto d = detail::device_from_json(client_doc(table.devices().at(0)));
+  auto d = detail::device_from_text(table.devices().at(0).dump());
   EXPECT_EQ(d.source, "usb");
   ASSERT_TRUE(d.usb);
   EXPECT_EQ(d.usb->bus, 2);
@@ -496,7 +508,7 @@ TEST(Device, UsbAndMergedDevicesAsTheDaemonWritesThem) {
                {{"source", "dds"}, {"serial", "123"}, {"domain", 0}, {"topic-root", "realsense/D435_123"},
                 {"name", "Intel RealSense D435"}, {"recovery", false}, {"server", njson::object()}},
                "2026-11-23T13:10:21.000Z");
-  auto merged = detail::device_from_json(client_doc(table.devices().at(0)));
+  auto merged = detail::device_from_text(table.devices().at(0).dump());
   EXPECT_EQ(merged.source, "dds");
   EXPECT_EQ(merged.sources, (std::vector<std::string>{"dds", "usb"}));
   EXPECT_EQ(merged.domain, 0);
