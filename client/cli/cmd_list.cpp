@@ -2,7 +2,6 @@
 #include "common.hpp"
 
 #include <chrono>
-#include <cstring>
 #include <string_view>
 
 namespace rsdiscover {
@@ -11,10 +10,13 @@ namespace {
 // ", in use" (", in use: Depth, Color" while streamed): a network camera with a client
 // (its "in-use"; `rs-discover clients ID` says who). Parsed only when it is there.
 std::string in_use_marker(const rsdiscovery::Device& d) {
-  // memmem: string::find looks for the first quote with memchr, and a document has
-  // one every few bytes.
-  static constexpr std::string_view kKey = "\"in-use\"";
-  if (!memmem(d.json.data(), d.json.size(), kKey.data(), kKey.size())) return "";
+  // Looked for from its '-' on: string_view::find goes by memchr to each place of the
+  // first letter, and a document has a quote every few bytes, a '-' in a few places.
+  const std::string_view text(d.json);
+  bool listed = false;
+  for (auto i = text.find("-use\":"); i != std::string_view::npos && !listed; i = text.find("-use\":", i + 1))
+    listed = i >= 3 && text.substr(i - 3, 3) == "\"in";
+  if (!listed) return "";
   const auto doc = rsdiscovery::json::parse_or_null(d.json);
   const auto* in_use = rsdiscovery::json::find(doc, "in-use");
   if (!in_use || !in_use->IsObject()) return "";
@@ -116,13 +118,21 @@ int run(const ParsedArgs& args) {
   Table table(headers);
   for (const auto& d : devices) {
     const std::string state = device_state(d);
-    std::vector<std::string> cells = {d.name.empty() ? "-" : d.name, d.serial.empty() ? "-" : d.serial,
-                                      device_sources(d), device_location(d), device_addresses(d),
-                                      state + in_use_marker(d),
-                                      age_since(d.first_seen)};
-    if (wide)
-      cells.insert(cells.end(), {d.product_id.empty() ? "-" : d.product_id,
-                                 d.fw_version.empty() ? "-" : d.fw_version, d.id});
+    // Each cell made in its place (a list of them in braces is copied once more).
+    std::vector<std::string> cells;
+    cells.reserve(headers.size());
+    cells.push_back(d.name.empty() ? "-" : d.name);
+    cells.push_back(d.serial.empty() ? "-" : d.serial);
+    cells.push_back(device_sources(d));
+    cells.push_back(device_location(d));
+    cells.push_back(device_addresses(d));
+    cells.push_back(state + in_use_marker(d));
+    cells.push_back(age_since(d.first_seen));
+    if (wide) {
+      cells.push_back(d.product_id.empty() ? "-" : d.product_id);
+      cells.push_back(d.fw_version.empty() ? "-" : d.fw_version);
+      cells.push_back(d.id);
+    }
     std::vector<const char*> colors(cells.size(), nullptr);
     colors[5] = state_color(state);
     table.add(std::move(cells), std::move(colors));

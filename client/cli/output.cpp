@@ -39,16 +39,16 @@ const char* state_color(const std::string& state) {
 }
 
 std::string device_location(const rsdiscovery::Device& d) {
-  std::vector<std::string> parts;
-  if (d.domain) parts.push_back(std::to_string(*d.domain));
+  std::string out;
+  const auto part = [&](std::string_view text) { out.append(out.empty() ? "" : ", ").append(text); };
+  if (d.domain) part(std::to_string(*d.domain));
   if (d.usb) {
-    std::string port = d.usb->port_path;
-    if (port.empty() && d.usb->bus) port = "bus " + std::to_string(*d.usb->bus);
-    parts.push_back("usb " + (port.empty() ? std::string("?") : port));
+    if (!d.usb->port_path.empty()) part("usb " + d.usb->port_path);
+    else part(d.usb->bus ? "usb bus " + std::to_string(*d.usb->bus) : std::string("usb ?"));
   }
-  if (const auto host = rsdiscovery::sharing_host(d))
-    parts.push_back("on " + (host->name.empty() ? std::string("?") : host->name));
-  return parts.empty() ? "-" : join(parts, ", ");
+  if (d.source == "remote-usb")
+    if (const auto host = rsdiscovery::sharing_host(d)) part("on " + (host->name.empty() ? std::string("?") : host->name));
+  return out.empty() ? "-" : out;
 }
 
 std::string device_addresses(const rsdiscovery::Device& d) {
@@ -140,13 +140,13 @@ void Table::print(std::FILE* out) const {
   std::vector<std::size_t> header_widths(columns), w(columns);
   for (std::size_t i = 0; i < columns; ++i) w[i] = header_widths[i] = width(headers_[i]);
   for (std::size_t k = 0; k < widths_.size(); ++k) w[k % columns] = std::max(w[k % columns], widths_[k]);
-  // One buffer for every line, cells appended in place (a copy of each cell and a
-  // string grown per line were most of the table's cost in a cold list of 100).
+  // The whole table in one buffer, cells appended in place, and one write (a copy of
+  // each cell, a string grown per line and a write per line were most of the
+  // table's cost in a cold list of 100).
   const bool color = output().color;
   std::string text;
   auto line = [&](const std::vector<std::string>& cells, const std::size_t* widths,
                   const std::vector<const char*>* colors, const char* all) {
-    text.clear();
     for (std::size_t i = 0; i < cells.size(); ++i) {
       const char* code = colors ? (*colors)[i] : all;
       if (color && code) text.append(code).append(cells[i]).append("\033[0m");
@@ -154,10 +154,11 @@ void Table::print(std::FILE* out) const {
       if (i + 1 < cells.size()) text.append(w[i] - widths[i] + 2, ' ');
     }
     text += '\n';
-    std::fwrite(text.data(), 1, text.size(), out);
   };
   if (output().headers) line(headers_, header_widths.data(), nullptr, color::bold);
+  text.reserve(text.size() * (rows_.size() + 1));  // each line about as long as the headers'
   for (std::size_t r = 0; r < rows_.size(); ++r) line(rows_[r], widths_.data() + r * columns, &colors_[r], nullptr);
+  std::fwrite(text.data(), 1, text.size(), out);
 }
 
 std::string missing_since(const rsdiscovery::ExpectedCamera& camera) {
