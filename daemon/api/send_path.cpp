@@ -36,14 +36,18 @@ class SplicePipe {
 
   // Sends `head` and then up to `body_length` bytes of `body` from `offset`; returns
   // how many bytes (head first) the socket took, or -1 with errno.
-  ssize_t send(int socket, std::string_view head, int body, off_t offset, std::size_t body_length) {
+  ssize_t send(int socket, std::string_view head, const SharedBody& body, off_t offset, std::size_t body_length) {
     ssize_t in = ::write(write_, head.data(), head.size());
     if (in != static_cast<ssize_t>(head.size())) {  // an empty pipe takes a page: never
       drain(in > 0 ? static_cast<std::size_t>(in) : 0);
       errno = EIO;
       return -1;
     }
-    const ssize_t spliced = ::splice(body, &offset, write_, nullptr, body_length, SPLICE_F_NONBLOCK);
+    // The whole body from its own pipe, by reference; else (the rest of a body the
+    // socket took a part of) from the memfd.
+    const bool whole = offset == 0 && body_length == body.bytes().size() && body.pipe() >= 0;
+    const ssize_t spliced = whole ? ::tee(body.pipe(), write_, body_length, SPLICE_F_NONBLOCK)
+                                  : ::splice(body.fd(), &offset, write_, nullptr, body_length, SPLICE_F_NONBLOCK);
     if (spliced > 0) in += spliced;
     ssize_t out;
     do out = ::splice(read_, nullptr, socket, nullptr, static_cast<std::size_t>(in), SPLICE_F_NONBLOCK);
@@ -94,8 +98,8 @@ bool send_pending(Connection& c) {
     if (!c.listener->http && o.file_left > 0 && o.out_pending() > 0 && o.out_pending() <= SplicePipe::kMaxHead)
       pipe = SplicePipe::for_this_thread();
     if (pipe) {
-      n = pipe->send(c.fd, std::string_view(o.out).substr(o.out_pos), o.file->fd(),
-                     static_cast<off_t>(o.file_offset), o.file_left);
+      n = pipe->send(c.fd, std::string_view(o.out).substr(o.out_pos), *o.file, static_cast<off_t>(o.file_offset),
+                     o.file_left);
       if (n > 0) {
         auto sent = static_cast<std::size_t>(n);
         const auto from_out = std::min(sent, o.out_pending());
@@ -148,10 +152,34 @@ SharedBody::SharedBody(std::string bytes) : bytes_(std::move(bytes)) {
   // Sealed: what a client is sent can no longer change under it.
   fcntl(fd, F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_WRITE | F_SEAL_SEAL);
   fd_ = fd;
+  fill_pipe();
+}
+
+// tee hands a pipe's pages to another pipe by reference, and the kernel does not let
+// a later write into that pipe add to them: the body's pages are written once, here.
+// A body beyond kMaxPipeBody (a list of some 2,000 cameras; a copy more of it held
+// for each generation), or one the system will not give a pipe that large, goes from
+// the memfd alone.
+void SharedBody::fill_pipe() {
+  constexpr std::size_t kMaxPipeBody = 1 << 20;  // Linux's default /proc/sys/fs/pipe-max-size
+  int fds[2];
+  if (bytes_.size() > kMaxPipeBody || ::pipe2(fds, O_NONBLOCK | O_CLOEXEC) != 0) return;
+  const int capacity = ::fcntl(fds[1], F_SETPIPE_SZ, static_cast<int>(bytes_.size()));
+  std::size_t done = 0;
+  while (capacity >= static_cast<int>(bytes_.size()) && done < bytes_.size()) {
+    const ssize_t n = ::write(fds[1], bytes_.data() + done, bytes_.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    done += static_cast<std::size_t>(n);
+  }
+  ::close(fds[1]);
+  if (done == bytes_.size()) pipe_read_ = fds[0];
+  else ::close(fds[0]);
 }
 
 SharedBody::~SharedBody() {
   if (fd_ >= 0) ::close(fd_);
+  if (pipe_read_ >= 0) ::close(pipe_read_);
 }
 
 }  // namespace rsd::api

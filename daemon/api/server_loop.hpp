@@ -34,7 +34,9 @@ class EventFeed {
 // generation), also held in a sealed memfd so that the loop hands them to the socket
 // with sendfile, without copying them, as nginx serves a file: copying the list into
 // each socket was what kept the daemon below nginx on the Unix socket (bench/, http).
-// Small bodies are not worth the memfd.
+// Small bodies are not worth the memfd. A body that fits in a pipe is also held in
+// one, whose pages a response takes by reference (tee) without looking each up in
+// the memfd again.
 class SharedBody {
  public:
   explicit SharedBody(std::string bytes);
@@ -43,10 +45,13 @@ class SharedBody {
   SharedBody& operator=(const SharedBody&) = delete;
   const std::string& bytes() const { return bytes_; }
   int fd() const { return fd_; }  // -1: served by copy
+  int pipe() const { return pipe_read_; }  // the whole body, never read; -1: none
 
  private:
+  void fill_pipe();
   std::string bytes_;
   int fd_ = -1;
+  int pipe_read_ = -1;
 };
 
 // What a route handler knows of the request besides httplib's Request, and how it

@@ -1,6 +1,6 @@
 // The API's send path, driven over socketpairs with a small send buffer so that
-// every call stops part way, as a slow client makes it: SharedBody's sealed memfd,
-// and send_pending through the splice pipe (Unix socket) and sendfile (TCP) alike.
+// every call stops part way, as a slow client makes it: SharedBody's sealed memfd and
+// pipe, and send_pending through the splice pipe (Unix socket) and sendfile (TCP) alike.
 // Until the server loop was split these were reached only through the daemon; and
 // a ServerLoop whose start fails.
 #include "api/connection.hpp"
@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
+#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -85,6 +86,23 @@ TEST(SharedBody, SmallBodiesAreCopiedLargeOnesSealedInAMemfd) {
   std::string back(text.size(), '\0');
   EXPECT_EQ(::pread(body.fd(), back.data(), back.size(), 0), static_cast<ssize_t>(text.size()));
   EXPECT_EQ(back, text);
+}
+
+// A list that fits in a pipe is held in one too, and each response takes its pages
+// by reference (tee): the pipe is never read from, so every response gets it whole.
+TEST(SharedBody, ABodyThatFitsAPipeGoesOutWholeToEveryResponse) {
+  const auto body = std::make_shared<const SharedBody>(body_pattern(51 * 1024));
+  ASSERT_GE(body->pipe(), 0);
+  EXPECT_LT(SharedBody(body_pattern(2 * 1024 * 1024)).pipe(), 0);  // beyond a pipe: the memfd alone
+  const std::string head = "HTTP/1.1 200 OK\r\nContent-Length: 52224\r\n\r\n";
+  LoopListener unix_socket;
+  for (int response = 0; response < 3; ++response) {
+    const auto [got, calls] = send_all(unix_socket, head, body);
+    EXPECT_TRUE(got == head + body->bytes()) << "response " << response;
+  }
+  int queued = -1;
+  ASSERT_EQ(::ioctl(body->pipe(), FIONREAD, &queued), 0);
+  EXPECT_EQ(queued, static_cast<int>(body->bytes().size())) << "the body's own pipe was read from";
 }
 
 TEST(SendPending, AHeadAndItsBodyArriveWholeAndInOrderOnEitherPath) {
