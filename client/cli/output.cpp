@@ -46,8 +46,8 @@ std::string device_location(const rsdiscovery::Device& d) {
     if (!d.usb->port_path.empty()) part("usb " + d.usb->port_path);
     else part(d.usb->bus ? "usb bus " + std::to_string(*d.usb->bus) : std::string("usb ?"));
   }
-  if (d.source == "remote-usb")
-    if (const auto host = rsdiscovery::sharing_host(d)) part("on " + (host->name.empty() ? std::string("?") : host->name));
+  if (const auto host = rsdiscovery::sharing_host(d))
+    part("on " + (host->name.empty() ? std::string("?") : host->name));
   return out.empty() ? "-" : out;
 }
 

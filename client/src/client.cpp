@@ -157,7 +157,8 @@ std::optional<Device> Client::Impl::find_device(const std::string& id, std::stri
   }
   detail::DeviceDocument doc;
   if (const auto why = detail::read_device(reply.body, doc))
-    malformed(endpoint, "GET " + path + (*why == detail::Unread::not_json ? " is not JSON" : std::string(": ") + to_string(*why)));
+    malformed(endpoint, "GET " + path +
+                            (*why == detail::Unread::not_json ? " is not JSON" : std::string(": ") + to_string(*why)));
   doc.device.json = std::move(reply.body);
   return std::move(doc.device);
 }

@@ -100,7 +100,8 @@ inline Slot slot_of(std::span<const KeySlot> keys, std::string_view k, Slot othe
   for (std::size_t n = 0, i = next; n < keys.size(); ++n, i = i + 1 == keys.size() ? 0 : i + 1) {
     const auto& ks = keys[i];
     // Length and first letter before memcmp: most keys are told apart by those.
-    if (ks.key.size() == k.size() && !k.empty() && ks.key[0] == k[0] && !std::memcmp(ks.key.data(), k.data(), k.size())) {
+    if (ks.key.size() == k.size() && !k.empty() && ks.key[0] == k[0] &&
+        !std::memcmp(ks.key.data(), k.data(), k.size())) {
       next = static_cast<std::uint8_t>(i + 1 == keys.size() ? 0 : i + 1);
       return ks.slot;
     }

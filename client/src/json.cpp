@@ -119,7 +119,9 @@ class TreeEvents final : public Events {
   void string(std::string_view s) override { doc_.String(s.data(), size(s), true); }
   void key(std::string_view k) override { doc_.Key(k.data(), size(k), true); }
   void start_object(std::size_t) override { doc_.StartObject(); }
-  void end_object(std::size_t, std::size_t members) override { doc_.EndObject(static_cast<rapidjson::SizeType>(members)); }
+  void end_object(std::size_t, std::size_t members) override {
+    doc_.EndObject(static_cast<rapidjson::SizeType>(members));
+  }
   void start_array() override { doc_.StartArray(); }
   void end_array(std::size_t elements) override { doc_.EndArray(static_cast<rapidjson::SizeType>(elements)); }
 

@@ -464,7 +464,8 @@ TEST(DeviceList, RefusesWhatIsNotJson) {
             njson::parse("[18446744073709551615,-9223372036854775808,1.8446744073709552e19,2.5e100,1e-300,-0.0]"));
   // The parse is in place: a string with escapes is written back shorter where it
   // stood, and what follows it is still read from where it stands.
-  std::string shifted = R"({"devices":[{"id":"a\"b\\c\u0041","n":[12,-3.5e2],"domain":7,"name":"\t"}],"generation":5})";
+  std::string shifted =
+      R"({"devices":[{"id":"a\"b\\c\u0041","n":[12,-3.5e2],"domain":7,"name":"\t"}],"generation":5})";
   ASSERT_EQ(detail::read_device_list(shifted, "/v1/devices", out), std::nullopt);
   EXPECT_EQ(out.devices.at(0).id, "a\"b\\cA");
   EXPECT_EQ(out.devices.at(0).domain, 7);
