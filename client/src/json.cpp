@@ -155,7 +155,7 @@ bool is_ascii(std::string_view text) {
 // exponent of ten digits to the count of a fraction's digits in an int, which
 // underflows (CVE-2024-38517; trixie's 7.4 is patched), and its full-precision strtod
 // shifts by the leading zeros of a zero significand (0e-300), which is undefined.
-constexpr unsigned kFlags = rapidjson::kParseNumbersAsStringsFlag;
+constexpr unsigned kFlags = rapidjson::kParseNumbersAsStringsFlag | rapidjson::kParseInsituFlag;
 
 // A finite double laid out as nlohmann lays it out: in full from 1e-4 to below 1e15,
 // a whole one with ".0" ("0.001", "1500.0"), else with a signed exponent of two digits
