@@ -30,6 +30,9 @@ std::string in_use_marker(const rsdiscovery::Device& d) {
   return out;
 }
 
+// A field's text moved into its cell (the device is not read again), or "-".
+std::string taken_or_dash(std::string& field) { return field.empty() ? "-" : std::move(field); }
+
 int run(const ParsedArgs& args) {
   if (!args.positional.empty()) throw UsageError("unexpected argument '" + args.positional[0] + "'");
   auto filter = filter_from(args);
@@ -116,26 +119,21 @@ int run(const ParsedArgs& args) {
   std::vector<std::string> headers = {"NAME", "SERIAL", "SOURCE", "DOMAIN/PORT", "ADDRESS", "STATE", "AGE"};
   if (wide) headers.insert(headers.end(), {"PRODUCT-ID", "FW", "ID"});
   Table table(headers);
-  for (const auto& d : devices) {
+  table.reserve_rows(devices.size());
+  for (auto& d : devices) {  // each cell made in its place, the name and serial moved there
     const std::string state = device_state(d);
-    // Each cell made in its place (a list of them in braces is copied once more).
-    std::vector<std::string> cells;
-    cells.reserve(headers.size());
-    cells.push_back(d.name.empty() ? "-" : d.name);
-    cells.push_back(d.serial.empty() ? "-" : d.serial);
-    cells.push_back(device_sources(d));
-    cells.push_back(device_location(d));
-    cells.push_back(device_addresses(d));
-    cells.push_back(state + in_use_marker(d));
-    cells.push_back(age_since(d.first_seen));
+    table.cell(taken_or_dash(d.name));
+    table.cell(taken_or_dash(d.serial));
+    table.cell(device_sources(d));
+    table.cell(device_location(d));
+    table.cell(device_addresses(d));
+    table.cell(state + in_use_marker(d), state_color(state));
+    table.cell(age_since(d.first_seen));
     if (wide) {
-      cells.push_back(d.product_id.empty() ? "-" : d.product_id);
-      cells.push_back(d.fw_version.empty() ? "-" : d.fw_version);
-      cells.push_back(d.id);
+      table.cell(d.product_id.empty() ? "-" : d.product_id);
+      table.cell(d.fw_version.empty() ? "-" : d.fw_version);
+      table.cell(d.id);
     }
-    std::vector<const char*> colors(cells.size(), nullptr);
-    colors[5] = state_color(state);
-    table.add(std::move(cells), std::move(colors));
   }
   table.print(stdout);
   exit_now(kOk);

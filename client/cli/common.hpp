@@ -187,15 +187,20 @@ std::string value_text(const rsdiscovery::json::Value& v);
 class Table {
  public:
   explicit Table(std::vector<std::string> headers) : headers_(std::move(headers)) {}
-  // colors: optional per cell colour codes (same length as cells, nullptr: none)
+  // A whole row. colors: optional per cell colour codes (nullptr: none); missing cells
+  // are empty.
   void add(std::vector<std::string> cells, std::vector<const char*> colors = {});
+  // The next cell, left to right and row after row: a long table is filled without a
+  // vector for each of its rows.
+  void cell(std::string text, const char* color = nullptr);
+  void reserve_rows(std::size_t rows);
   void print(std::FILE* out) const;
 
  private:
   std::vector<std::string> headers_;
-  std::vector<std::vector<std::string>> rows_;
-  std::vector<std::vector<const char*>> colors_;
-  std::vector<std::size_t> widths_;  // each cell's, row after row
+  std::vector<std::string> cells_;    // row after row
+  std::vector<const char*> colors_;   // each cell's
+  std::vector<std::size_t> widths_;   // each cell's
 };
 
 // The subcommands, one per cmd_*.cpp file.

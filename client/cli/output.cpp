@@ -128,11 +128,20 @@ std::size_t width(const std::string& s) {
 }  // namespace
 
 void Table::add(std::vector<std::string> cells, std::vector<const char*> colors) {
-  cells.resize(headers_.size());
-  colors.resize(headers_.size(), nullptr);
-  for (const auto& cell : cells) widths_.push_back(width(cell));
-  rows_.push_back(std::move(cells));
-  colors_.push_back(std::move(colors));
+  for (std::size_t i = 0; i < headers_.size(); ++i)
+    cell(i < cells.size() ? std::move(cells[i]) : std::string(), i < colors.size() ? colors[i] : nullptr);
+}
+
+void Table::cell(std::string text, const char* color) {
+  widths_.push_back(width(text));
+  cells_.push_back(std::move(text));
+  colors_.push_back(color);
+}
+
+void Table::reserve_rows(std::size_t rows) {
+  cells_.reserve(rows * headers_.size());
+  colors_.reserve(rows * headers_.size());
+  widths_.reserve(rows * headers_.size());
 }
 
 void Table::print(std::FILE* out) const {
@@ -145,19 +154,20 @@ void Table::print(std::FILE* out) const {
   // table's cost in a cold list of 100).
   const bool color = output().color;
   std::string text;
-  auto line = [&](const std::vector<std::string>& cells, const std::size_t* widths,
-                  const std::vector<const char*>* colors, const char* all) {
-    for (std::size_t i = 0; i < cells.size(); ++i) {
-      const char* code = colors ? (*colors)[i] : all;
+  auto line = [&](const std::string* cells, const std::size_t* widths, const char* const* colors, const char* all) {
+    for (std::size_t i = 0; i < columns; ++i) {
+      const char* code = colors ? colors[i] : all;
       if (color && code) text.append(code).append(cells[i]).append("\033[0m");
       else text.append(cells[i]);
-      if (i + 1 < cells.size()) text.append(w[i] - widths[i] + 2, ' ');
+      if (i + 1 < columns) text.append(w[i] - widths[i] + 2, ' ');
     }
     text += '\n';
   };
-  if (output().headers) line(headers_, header_widths.data(), nullptr, color::bold);
-  text.reserve(text.size() * (rows_.size() + 1));  // each line about as long as the headers'
-  for (std::size_t r = 0; r < rows_.size(); ++r) line(rows_[r], widths_.data() + r * columns, &colors_[r], nullptr);
+  if (output().headers) line(headers_.data(), header_widths.data(), nullptr, color::bold);
+  const std::size_t rows = columns ? cells_.size() / columns : 0;
+  text.reserve(text.size() * (rows + 1));  // each line about as long as the headers'
+  for (std::size_t k = 0; k < rows * columns; k += columns)
+    line(cells_.data() + k, widths_.data() + k, colors_.data() + k, nullptr);
   std::fwrite(text.data(), 1, text.size(), out);
 }
 

@@ -95,17 +95,27 @@ IoEnd write_all(int fd, std::string_view data, Deadline deadline, const std::ato
 }
 
 IoEnd read_some(int fd, std::string& buffer, Deadline deadline, const std::atomic<bool>& cancelled) {
-  char chunk[16384];
+  // Straight into the buffer, no copy on the way: into the room it has (all of a body
+  // whose length is known, once reserved), at least a page and at most 64 KiB. A
+  // first read of a page and then the body's length reserved touches fewer fresh
+  // pages than a larger first read would, which a cold one-shot process pays for.
+  const std::size_t had = buffer.size();
+  const std::size_t room = std::clamp<std::size_t>(buffer.capacity() - had, 4096, 65536);
+  buffer.resize(had + room);  // zeroes it: std::string cannot grow uninitialised before C++23
   for (;;) {
-    const ssize_t n = ::recv(fd, chunk, sizeof chunk, 0);
+    const ssize_t n = ::recv(fd, buffer.data() + had, room, 0);
     if (n > 0) {
-      buffer.append(chunk, static_cast<std::size_t>(n));
+      buffer.resize(had + static_cast<std::size_t>(n));
       return IoEnd::ok;
     }
-    if (n == 0) return IoEnd::closed;
-    if (errno == EINTR) continue;
-    if (errno != EAGAIN && errno != EWOULDBLOCK) return IoEnd::closed;
-    if (const auto w = wait_for(fd, POLLIN, deadline, cancelled); w != IoEnd::ok) return w;
+    IoEnd end = IoEnd::closed;
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+      end = wait_for(fd, POLLIN, deadline, cancelled);
+      if (end == IoEnd::ok) continue;
+    }
+    buffer.resize(had);
+    return end;
   }
 }
 

@@ -19,7 +19,8 @@ using Deadline = std::chrono::steady_clock::time_point;
 // A connected non-blocking socket, or -1 (diagnose_connect() then says why).
 int open_socket(const Endpoint& endpoint, std::chrono::milliseconds timeout);
 IoEnd write_all(int fd, std::string_view data, Deadline deadline, const std::atomic<bool>& cancelled);
-// Appends what the socket has to `buffer`, waiting until `deadline` for something.
+// Appends what the socket has to `buffer` (as much as its spare capacity holds),
+// waiting until `deadline` for something.
 IoEnd read_some(int fd, std::string& buffer, Deadline deadline, const std::atomic<bool>& cancelled);
 
 }  // namespace rsdiscovery::detail

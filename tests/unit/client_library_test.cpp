@@ -19,6 +19,8 @@
 #include <poll.h>
 #include <signal.h>
 #include <spawn.h>
+#include <linux/sockios.h>
+#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
@@ -1020,6 +1022,64 @@ TEST(Client, AnswersBeyondTheBoundAreRefusedNotRead) {
       EXPECT_NE(std::string(e.what()).find("the answer to GET /v1/devices is larger than 64 MiB (not read)"),
                 std::string::npos)
           << what << ": " << e.what();
+    }
+  }
+}
+
+// Until the client has read all that was sent on `fd`, so the next send is a read
+// of its own on the client's side.
+void wait_drained(int fd) {
+  const auto give_up = std::chrono::steady_clock::now() + 10s;
+  for (int queued = 1; queued > 0 && std::chrono::steady_clock::now() < give_up;) {
+    if (::ioctl(fd, SIOCOUTQ, &queued) != 0) return;
+    if (queued > 0) std::this_thread::yield();
+  }
+}
+
+TEST(Client, AReplyInPiecesIsReadWholeInEachFraming) {
+  // The reader reads straight into its buffer, from a page to 64 KiB at a time: pieces
+  // across those sizes, each read on its own, in each way a reply can be framed.
+  std::string body = R"({"complete":true,"generation":5,"devices":[)";
+  const int count = 300;
+  for (int i = 0; i < count; ++i)
+    body += (i ? "," : "") + std::string(R"({"id":"dev-)") + std::to_string(i) + R"(","name":"camera )" +
+            std::to_string(i) + " " + std::string(200, 'x') + R"("})";
+  body += "]}";
+  ASSERT_GT(body.size(), std::size_t{70000});
+  const std::vector<std::size_t> sizes = {1, 4095, 4097, 65536, 70000, 3};
+  const auto in_pieces = [&](int fd, const std::string& text, bool chunked) {
+    for (std::size_t at = 0, k = 0; at < text.size(); ++k) {
+      const std::string piece = text.substr(at, sizes[k % sizes.size()]);
+      at += piece.size();
+      char size[32];
+      std::snprintf(size, sizeof size, "%zx\r\n", piece.size());
+      say(fd, chunked ? size + piece + "\r\n" : piece);
+      wait_drained(fd);
+    }
+  };
+  const std::string head = "HTTP/1.1 200 OK\r\nContent-Type: application/json\r\n";
+  const std::map<std::string, RawServer::Answer> framings = {
+      {"a length", [&](int fd, const std::string&) {
+         in_pieces(fd, head + "Content-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body, false);
+       }},
+      {"chunks", [&](int fd, const std::string&) {
+         say(fd, head + "Transfer-Encoding: chunked\r\n\r\n");
+         in_pieces(fd, body, true);
+         say(fd, "0\r\n\r\n");
+       }},
+      {"until the close", [&](int fd, const std::string&) {
+         in_pieces(fd, head + "Connection: close\r\n\r\n" + body, false);
+         ::shutdown(fd, SHUT_WR);
+       }},
+  };
+  for (const auto& [framing, answer] : framings) {
+    RawServer server(answer);
+    const auto list = Client(server.endpoint()).list();
+    ASSERT_EQ(list.devices.size(), std::size_t{count}) << framing;
+    EXPECT_EQ(list.generation, 5u) << framing;
+    for (int i = 0; i < count; ++i) {
+      EXPECT_EQ(list.devices[i].id, "dev-" + std::to_string(i)) << framing;
+      EXPECT_EQ(list.devices[i].name, "camera " + std::to_string(i) + " " + std::string(200, 'x')) << framing;
     }
   }
 }
