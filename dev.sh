@@ -41,8 +41,8 @@ TEST_PACKAGES=(
   dh-python pybuild-plugin-pyproject python3-all python3-setuptools python3-wheel
   # the real-systemd test: a minimal Debian booted with systemd-nspawn
   mmdebstrap systemd-container
-  # bench/run (and its smoke test): load generators, the nginx anchor, whole-command timing
-  wrk nginx-light hyperfine
+  # bench/run (and its smoke test): load generators and the nginx anchor
+  wrk nginx-light
   # the fuzz targets under libFuzzer (tests/fuzz; a third tree, build-fuzz)
   clang libclang-rt-dev
   # the daemon's web page, tested in a real headless browser

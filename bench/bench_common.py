@@ -3,6 +3,7 @@ lines, /proc readings, statistics and the device-info of a made-up camera."""
 import json
 import os
 import queue
+import random
 import statistics
 import subprocess
 import sys
@@ -48,6 +49,45 @@ def stats(values):
     if len(v) >= 20:
         out["p99"] = q(0.99)
     return out
+
+
+def spawn_paired(cmds, turns, warmup=5):
+    """Whole processes timed as hyperfine times them (spawn to reaped, in ms), every
+    command once per turn in a random order, so that load from elsewhere on a shared
+    machine falls on all of them alike: hyperfine runs each command's runs one after
+    another, and a ratio of two of them then also measures the machine's drift.
+    cmds: {label: argv}; returns {label: [ms, turn after turn]}."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    actions = [(os.POSIX_SPAWN_DUP2, devnull, 1), (os.POSIX_SPAWN_DUP2, devnull, 2)]
+
+    def once(argv):
+        t0 = time.perf_counter_ns()
+        pid = os.posix_spawnp(argv[0], argv, os.environ, file_actions=actions)
+        _, status = os.waitpid(pid, 0)
+        took = (time.perf_counter_ns() - t0) / 1e6
+        if status != 0:
+            raise BenchError(f"{' '.join(argv)} failed (wait status {status})")
+        return took
+    try:
+        for _ in range(warmup):
+            for argv in cmds.values():
+                once(argv)
+        samples = {label: [] for label in cmds}
+        for _ in range(turns):
+            order = list(cmds.items())
+            random.shuffle(order)
+            for label, argv in order:
+                samples[label].append(once(argv))
+    finally:
+        os.close(devnull)
+    return samples
+
+
+def block_ratios(of, to, block=20):
+    """Paired samples (spawn_paired's, the same turns): per block of `block` turns, the
+    median of `of` over the median of `to`."""
+    return [statistics.median(of[i:i + block]) / statistics.median(to[i:i + block])
+            for i in range(0, max(1, len(of) - block + 1), block)]
 
 
 def ratio(a, b):

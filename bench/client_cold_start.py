@@ -17,7 +17,6 @@ the same turns: a before/after measured side by side.
 import argparse
 import json
 import os
-import random
 import shutil
 import socket
 import statistics
@@ -27,6 +26,8 @@ import tempfile
 import time
 import urllib.request
 
+from bench_common import block_ratios, spawn_paired
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
@@ -34,26 +35,6 @@ def free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
-
-
-def paired(cmds, runs, block=20):
-    """{label: (samples in ms, [median ratio to /bin/true per block])}, every command
-    once per turn in a random order."""
-    samples = {label: [] for label in cmds}
-    for _ in range(runs):
-        order = list(cmds.items())
-        random.shuffle(order)
-        for label, cmd in order:
-            t0 = time.perf_counter()
-            r = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-            samples[label].append((time.perf_counter() - t0) * 1000)
-            if r.returncode != 0:
-                sys.exit(f"{cmd} failed: {r.stderr.decode()}")
-    floor = samples[FLOOR]
-    ratios = {label: [statistics.median(v[i:i + block]) / statistics.median(floor[i:i + block])
-                      for i in range(0, runs - block + 1, block)] or [statistics.median(v) / statistics.median(floor)]
-              for label, v in samples.items()}
-    return {label: (samples[label], ratios[label]) for label in cmds}
 
 
 FLOOR = "/bin/true (process floor)"
@@ -120,7 +101,9 @@ def main():
             (FLOOR, ["/bin/true"]),
         ] + ([("list (table), --compare", [args.compare, "--endpoint", ep, "list"])] if args.compare else []) + ([("curl --unix-socket /v1/devices", ["curl", "-sf", "--unix-socket", sock,
                                                   "http://localhost/v1/devices"])] if shutil.which("curl") else []))
-        for label, (v, ratios) in paired(cmds, args.runs).items():
+        samples = spawn_paired(cmds, args.runs)
+        for label, v in samples.items():
+            ratios = block_ratios(v, samples[FLOOR])
             v = sorted(v)
             print(f"  {label:34s} {v[0]:6.2f} / {statistics.median(v):6.2f} / {v[int(len(v) * 0.9)]:6.2f}"
                   f"   {statistics.median(ratios):4.2f}x [{min(ratios):.2f}-{max(ratios):.2f}]")

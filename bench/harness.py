@@ -11,7 +11,8 @@ same run:
   http          GET /v1/devices, N devices, 64 and 1 connections, over TCP (wrk) and over the
                 Unix socket (bench/rsd-load.c), against nginx serving the same bytes from a
                 file (TCP and Unix socket); repetitions interleaved, ratios paired per repetition
-  cli_cold      cold `rs-discover list` against /bin/true and curl (hyperfine)
+  cli_cold      cold `rs-discover list` against /bin/true, a bare C client and curl, every command
+                once a turn in a random order
   client_library  in-process rsdiscovery::Client::list() of N devices, against its floor: the
                 same request answered 304 on a plain socket, plus copying the list; and a kept
                 DeviceView's devices() (no request), against copying the list
@@ -71,15 +72,15 @@ import conftest  # noqa: E402  (the suite's daemon, realdds server and domain-lo
 MODES = {
     # devices: in the main daemon (servers x per server); http_secs: per load run;
     # reps: repetitions, interleaved; scale: (devices, participants, domains)
-    "full": dict(servers=4, per_server=25, http_reps=5, http_secs=5, rsd_load_tcp=True, cli_runs=200, cli_rounds=5,
+    "full": dict(servers=4, per_server=25, http_reps=5, http_secs=5, rsd_load_tcp=True, cli_runs=400,
                  lib_iters=5000, lib_reps=3, rs_reps=5, lat_reps=15, kill_reps=5, scale=(1000, 10, 4),
                  watchers=100, changes=50, idle_secs=60, sse_connect_s=10, describe_reps=10,
                  open_reps=10),
-    "quick": dict(servers=4, per_server=25, http_reps=3, http_secs=1, rsd_load_tcp=False, cli_runs=60, cli_rounds=3,
+    "quick": dict(servers=4, per_server=25, http_reps=3, http_secs=1, rsd_load_tcp=False, cli_runs=60,
                   lib_iters=500, lib_reps=2, rs_reps=1, lat_reps=5, kill_reps=2, scale=(1000, 10, 4),
                   watchers=100, changes=16, idle_secs=6, sse_connect_s=4, describe_reps=4,
                   open_reps=3),
-    "smoke": dict(servers=2, per_server=5, http_reps=1, http_secs=1, rsd_load_tcp=False, cli_runs=5, cli_rounds=1,
+    "smoke": dict(servers=2, per_server=5, http_reps=1, http_secs=1, rsd_load_tcp=False, cli_runs=5,
                   lib_iters=50, lib_reps=1, rs_reps=1, lat_reps=1, kill_reps=1, scale=(20, 4, 2),
                   watchers=10, changes=2, idle_secs=1, sse_connect_s=4, describe_reps=1,
                   open_reps=1),
@@ -91,7 +92,7 @@ SECTIONS = ["http", "cli_cold", "client_library", "librealsense", "discovery", "
 import scale_large  # noqa: E402
 from bench_common import (  # noqa: E402
     BenchError, log, wait_until, stats, ratio, med_of, Lines, unix_get, rss_kb, cpu_seconds, device_info,
-    thread_switches)
+    thread_switches, spawn_paired, block_ratios)
 
 
 class Bench:
@@ -423,48 +424,31 @@ http {{
     # -- cold CLI ---------------------------------------------------------------------------
     def bench_cli(self):
         cli = self.cli
-        out = os.path.join(self.tmp, "hyperfine.json")
         # The floor of the list: a bare C process asking what `list` asks (cmd_list.cpp's
         # table fields) and printing the body; only what it leaves out is the CLI's own.
         floor = self.tool("rsd-bench-cold-floor", "cold-floor.c", "c")
         fields = ["name", "serial", "source", "sources", "domain", "usb", "host", "server.addresses", "first-seen",
                   "recovery", "warnings", "in-use"]
-        cmds = {"rs-discover list (unix)": f"{cli} --endpoint unix:{self.main.socket} list",
-                "rs-discover list (http)": f"{cli} --endpoint http://127.0.0.1:{self.main.port} list",
-                "bare C client (floor)": f"{floor} {self.main.socket} /v1/devices?fields={'%2C'.join(fields)}",
-                "/bin/true": "/bin/true",
-                "curl --unix-socket /v1/devices": f"curl -sf -o /dev/null --unix-socket {self.main.socket} "
-                                                  "http://localhost/v1/devices"}
-        # Rounds of one hyperfine run each (every command, in turn): the floor is measured
-        # beside the CLI in each round, and the ratio is paired per round, so a burst of
-        # load from elsewhere on the machine hits both sides of a ratio.
-        rounds = self.p["cli_rounds"]
-        per_round = max(3, self.p["cli_runs"] // rounds)
-        times = {name: [] for name in cmds}
-        round_ratios = {name: [] for name in cmds}
-        floor_ratios = []
-        for _ in range(rounds):
-            r = subprocess.run(["hyperfine", "--shell=none", "--warmup", "3", "--runs", str(per_round),
-                                "--style", "none", "--export-json", out] + list(cmds.values()),
-                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-            if r.returncode != 0:
-                raise BenchError(f"hyperfine failed:\n{r.stdout[-1500:]}")
-            with open(out) as f:
-                data = json.load(f)
-            med = {}
-            for name, entry in zip(cmds, data["results"]):
-                times[name] += [t * 1000 for t in entry["times"]]
-                med[name] = statistics.median(entry["times"])
-            for name in cmds:
-                round_ratios[name].append(med[name] / med["/bin/true"])
-            floor_ratios.append(med["rs-discover list (unix)"] / med["bare C client (floor)"])
-        res = {name: stats(v) for name, v in times.items()}
-        return {"unit": "ms", "runs": per_round * rounds, "rounds": rounds, "commands": res,
-                "ratio_to_true": {k: statistics.median(v) for k, v in round_ratios.items()},
-                "ratio_to_true_per_round": {k: stats(v) for k, v in round_ratios.items()},
-                "list_ratio_to_floor": stats(floor_ratios),
-                "anchor": "/bin/true (the process floor) and curl, in the same hyperfine runs; "
-                          "ratios: median of per-round ratios of medians"}
+        cmds = {"/bin/true": ["/bin/true"],
+                "rs-discover list (unix)": [cli, "--endpoint", f"unix:{self.main.socket}", "list"],
+                "rs-discover list (http)": [cli, "--endpoint", f"http://127.0.0.1:{self.main.port}", "list"],
+                "bare C client (floor)": [floor, self.main.socket, f"/v1/devices?fields={'%2C'.join(fields)}"],
+                "curl --unix-socket /v1/devices": ["curl", "-sf", "-o", "/dev/null", "--unix-socket",
+                                                   self.main.socket, "http://localhost/v1/devices"]}
+        # Every command once a turn, in a random order, and the ratios paired per block of
+        # turns: the floor is measured beside the CLI all through.
+        turns = self.p["cli_runs"]
+        samples = spawn_paired(cmds, turns)
+        to_true = {name: block_ratios(v, samples["/bin/true"]) for name, v in samples.items()}
+        to_floor = block_ratios(samples["rs-discover list (unix)"], samples["bare C client (floor)"])
+        return {"unit": "ms", "runs": turns, "blocks": len(to_floor),
+                "commands": {name: stats(v) for name, v in samples.items()},
+                "ratio_to_true": {k: statistics.median(v) for k, v in to_true.items()},
+                "ratio_to_true_per_block": {k: stats(v) for k, v in to_true.items()},
+                "list_ratio_to_floor": stats(to_floor),
+                "anchor": "/bin/true (the process floor), curl and the bare C client, each whole process timed "
+                          "from spawn to reaped, every command once a turn in a random order; ratios: median over "
+                          "blocks of 20 turns of the block's medians"}
 
     # -- client library ---------------------------------------------------------------------
     def bench_client_library(self):
@@ -896,7 +880,7 @@ http {{
             for name in ("rs-discover list (unix)", "rs-discover list (http)", "curl --unix-socket /v1/devices"):
                 s = c["commands"][name]
                 r = c["ratio_to_true"][name]
-                ratio_text = (f"{f(r, 1)}×{spread(c['ratio_to_true_per_round'][name], 1)} `/bin/true` "
+                ratio_text = (f"{f(r, 1)}×{spread(c['ratio_to_true_per_block'][name], 1)} `/bin/true` "
                               f"({f(c['commands']['/bin/true']['median'], 2)} ms)")
                 ok = None
                 if name == "rs-discover list (unix)" and fl:  # issue 33: the floor asks and reads too

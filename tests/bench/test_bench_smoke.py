@@ -1,5 +1,5 @@
 """bench/run --smoke: the harness of bench/ runs end to end against the real daemon, real
-realdds servers, nginx, wrk and hyperfine, and writes latest.json (valid, every section,
+realdds servers, nginx and wrk, and writes latest.json (valid, every section,
 none failed) and latest.md. No number is checked against a target: the machine is shared."""
 import json
 import os

@@ -26,7 +26,7 @@ def test_run_installs_a_part_of_what_test_installs():
     run, test = packages("run"), packages("test")
     assert run and set(run) < set(test)
     heavy = {"chromium", "chromium-driver", "clang", "libclang-rt-dev", "nginx-light", "mmdebstrap", "wrk",
-             "hyperfine", "umockdev", "lintian", "devscripts", "googletest", "libgtest-dev", "strace",
+             "umockdev", "lintian", "devscripts", "googletest", "libgtest-dev", "strace",
              "python3-pip", "zsh", "mandoc"}
     assert not heavy & set(run), heavy & set(run)
     assert heavy < set(test)
